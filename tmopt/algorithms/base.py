@@ -1,0 +1,112 @@
+"""The algorithm interface: ``setup`` once, then ``ask`` designs and ``tell`` their values.
+
+An algorithm never evaluates the problem itself: the runner owns the real evaluations
+(budget, archive, failures), so every algorithm spends the same budget the same way and
+a killed run can be replayed. Surrogate-only work (fitting models, generations on the
+models) happens inside ``ask``/``tell``.
+
+Subclasses implement ``_setup``, ``_infill`` (pymoo's name for proposing designs) and
+``_advance`` (updating the state with the evaluated batch), and may override
+``initial_sample_size`` and ``info``.
+"""
+
+from __future__ import annotations
+
+import random
+from abc import ABC, abstractmethod
+
+import numpy as np
+import torch
+
+from tmopt.problems.base import ExpensiveProblem
+from tmopt.problems.evaluator import EvaluatedBatch
+
+
+class AlgorithmConfigError(ValueError):
+    """An algorithm was asked for something it cannot do (names the algorithm)."""
+
+
+class Algorithm(ABC):
+    """Base class of every optimiser in tmopt.
+
+    Args:
+        pop_size: Population size (>= 2).
+    """
+
+    #: Short name used in configs, tables and messages.
+    name: str = "algorithm"
+    #: Whether the algorithm fits surrogate models (drives the ``surrogate`` config).
+    uses_surrogate: bool = False
+
+    def __init__(self, pop_size: int = 100) -> None:
+        if isinstance(pop_size, bool) or not isinstance(pop_size, (int, np.integer)) \
+                or pop_size < 2:
+            raise AlgorithmConfigError(f"algorithm {self.name}: pop_size must be an integer "
+                                       f">= 2, got {pop_size!r}")
+        self.pop_size = int(pop_size)
+        self.problem: ExpensiveProblem | None = None
+        self.n_gen = 0
+        self.n_evals = 0
+
+    # ---- public steps ----------------------------------------------------------------
+    def setup(self, problem: ExpensiveProblem, budget: int, seed: int) -> None:
+        """Bind the problem, the real-evaluation budget and the seed; reset all state."""
+        self.problem = problem
+        self.budget = int(budget)
+        self.seed = int(seed)
+        self.rng = np.random.default_rng(seed)
+        seed_everything(seed)
+        self.check_budget(problem, budget)
+        self.n_gen = 0
+        self.n_evals = 0
+        self._setup()
+
+    def ask(self) -> np.ndarray:
+        """Designs (n, n_var) to evaluate for real next."""
+        X = np.asarray(self._infill(), dtype=float)
+        return np.clip(X, self.problem.xl, self.problem.xu)
+
+    def tell(self, batch: EvaluatedBatch) -> None:
+        """Feed back real evaluations of (a prefix of) the last ``ask``."""
+        self.n_evals += len(batch.X)
+        self._advance(batch)
+        self.n_gen += 1
+
+    def has_next(self) -> bool:
+        """False when the algorithm has nothing more to propose (budget aside)."""
+        return True
+
+    def check_budget(self, problem: ExpensiveProblem, budget: int) -> None:
+        """Raise :class:`AlgorithmConfigError` if ``budget`` cannot cover the initial sample."""
+        need = self.initial_sample_size(problem)
+        if budget < need:
+            raise AlgorithmConfigError(
+                f"algorithm {self.name}: budget={budget} is smaller than its initial sample "
+                f"of {need} real evaluations on problem {problem.name}; raise the budget")
+
+    def initial_sample_size(self, problem: ExpensiveProblem) -> int:
+        """Real evaluations the algorithm needs before its first decision."""
+        return self.pop_size
+
+    def info(self) -> dict:
+        """Short state for progress lines (e.g. stage, granularity)."""
+        return {}
+
+    # ---- to implement ----------------------------------------------------------------
+    def _setup(self) -> None:
+        """Prepare state after :meth:`setup` has bound problem, budget and seed."""
+
+    @abstractmethod
+    def _infill(self) -> np.ndarray:
+        """Propose designs to evaluate for real."""
+
+    @abstractmethod
+    def _advance(self, batch: EvaluatedBatch) -> None:
+        """Update the state with evaluated designs."""
+
+
+def seed_everything(seed: int) -> None:
+    """Seed Python, NumPy's legacy global state and torch (libraries that use them)."""
+    random.seed(seed)
+    np.random.seed(seed % 2**32)
+    torch.manual_seed(seed)

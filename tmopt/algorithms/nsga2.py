@@ -1,0 +1,31 @@
+"""NSGA-II (Deb et al., IEEE TEVC 6(2), 2002) — pymoo's implementation.
+
+Tags: multi-objective, constrained (constrained-dominance), not surrogate-assisted.
+
+Parameters:
+    pop_size (100): population size; every generation evaluates ``pop_size`` offspring.
+    crossover_eta (15), crossover_prob (0.9): simulated binary crossover.
+    mutation_eta (20): polynomial mutation (probability 1/n_var per variable).
+"""
+
+from __future__ import annotations
+
+from pymoo.algorithms.moo.nsga2 import NSGA2 as _NSGA2
+from pymoo.operators.crossover.sbx import SBX
+from pymoo.operators.mutation.pm import PM
+
+from tmopt.algorithms.pymoo_adapter import PymooAdapter
+
+
+class NSGA2(PymooAdapter):
+    name = "nsga2"
+
+    def __init__(self, pop_size: int = 100, crossover_eta: float = 15.0,
+                 crossover_prob: float = 0.9, mutation_eta: float = 20.0) -> None:
+        super().__init__(pop_size)
+        self.crossover = SBX(prob=crossover_prob, eta=crossover_eta)
+        self.mutation = PM(eta=mutation_eta)
+
+    def build(self) -> _NSGA2:
+        return _NSGA2(pop_size=self.pop_size, crossover=self.crossover, mutation=self.mutation,
+                      eliminate_duplicates=True)

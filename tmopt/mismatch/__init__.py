@@ -1,0 +1,1 @@
+"""Simulation vs recording: locate, explain and model a mismatch."""

@@ -1,0 +1,1 @@
+"""Problems an optimiser sees: vectorised pymoo problems with constraint groups."""

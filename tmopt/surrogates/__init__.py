@@ -1,0 +1,1 @@
+"""Surrogate models: fit(X, Y), predict(X) -> (mean, std)."""
