@@ -1,0 +1,352 @@
+"""Batched closed-loop simulation of both test masses with online stiffness identification.
+
+One call simulates B designs (reference motions of TM1 and TM2) for N samples: dynamics of
+Eqs. 1-2 with exact ZOH steps, Table 1 noises, FRBF-PID / PID control (Sec. 3.3) and
+recursive least squares on the regression of Eqs. 10-16.  See docs/simulator.md.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from tmopt.physics import _closed_loop as cl
+from tmopt.physics.control import CONTROLLERS, ControllerSettings
+from tmopt.physics.excitation import MultiSine, sample_times
+from tmopt.physics.geometry import Geometry
+from tmopt.physics.noise import noise_realisation, noise_sigmas
+
+__all__ = ["SimulationConfig", "SimulationResult", "simulate", "CHANNEL_NAMES", "REASONS"]
+
+#: Recorded per-design channels, in the kernel's order.
+CHANNEL_NAMES: tuple[str, ...] = (
+    "x1_true", "x2_true", "y1_true", "y2_true",
+    "x1", "x2", "y1", "y2",
+    "acc_x1", "acc_x2", "acc_y1", "acc_y2",
+    "force_x1", "force_x2", "force_y1", "force_y2",
+)  # fmt: skip
+
+#: Divergence reasons by status code.
+REASONS: dict[int, str] = {
+    cl.OUT_X1: "TM1 sensitive-axis displacement |x1| left the divergence bound",
+    cl.OUT_X2: "TM2 sensitive-axis displacement |x2| left the divergence bound",
+    cl.OUT_Y1: "TM1 non-sensitive displacement |y1| left the divergence bound",
+    cl.OUT_Y2: "TM2 non-sensitive displacement |y2| left the divergence bound",
+    cl.BAD_FORCE: "controller output became non-finite",
+    cl.BAD_ESTIMATE: "RLS estimate became non-finite",
+}
+
+
+def _pair(name: str, value: tuple[float, float], allow_negative: bool = True) -> None:
+    if len(value) != 2 or not all(math.isfinite(v) for v in value):
+        raise ValueError(f"{name} must be 2 finite numbers; got {value!r}")
+    if not allow_negative and min(value) < 0:
+        raise ValueError(f"{name} must be >= 0; got {value!r}")
+
+
+def _positive(name: str, value: float, hint: str = "(0, inf)") -> None:
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+        raise ValueError(f"{name} must be finite and in {hint}; got {value!r}")
+
+
+@dataclass(frozen=True)
+class SimulationConfig:
+    """Everything but the reference motion.  Defaults: Table 1 and Secs. 4.1-4.4.
+
+    Stiffness and bias pairs are ``(sensitive x, non-sensitive y)`` per test mass, in its
+    own frame.  ``fb_bias`` / ``fb_sigma`` model the spacecraft acceleration f_B in frame s
+    (not in Table 1; see docs/decisions.md).  ``rls_scales`` = (x scale [m], y scale [m],
+    output scale [m s^-2]) normalise the regression internally; ``rls_p0`` is the initial
+    covariance in those scaled units.
+    """
+
+    sample_rate: float = 10.0
+    duration: float = 1200.0
+    controller: str = "frbf_pid"
+    stiffness_1: tuple[float, float] = (1e-7, 1e-7)
+    stiffness_2: tuple[float, float] = (1e-7, 1e-7)
+    bias_1: tuple[float, float] = (1e-10, 1e-10)
+    bias_2: tuple[float, float] = (1e-10, 1e-10)
+    sigma_m1: float = 1e-11
+    sigma_m2: float = 1e-8
+    sigma_acc: float = 1e-12
+    sigma_ele: float = 1e-12
+    fb_bias: tuple[float, float] = (1e-10, 1e-10)
+    fb_sigma: float = 1e-10
+    geometry: Geometry = field(default_factory=Geometry)
+    control: ControllerSettings = field(default_factory=ControllerSettings)
+    f_max: float = 1e-7
+    gap: float = 4e-3
+    alpha1: float = 0.5
+    alpha2: float = 0.1
+    rls_lambda: float = 1.0
+    rls_p0: float = 1e6
+    rls_scales: tuple[float, float, float] = (1e-5, 1e-8, 1e-12)
+    divergence_bound: float = 4e-3
+    steady_after: float = 300.0
+    record: Literal["full", "estimates"] = "full"
+
+    def __post_init__(self) -> None:
+        _positive("sample_rate", self.sample_rate, "(0, inf) Hz")
+        _positive("duration", self.duration, f"[{1 / self.sample_rate:g}, inf) s")
+        if self.duration * self.sample_rate < 1 - 1e-9:
+            raise ValueError(
+                f"duration must be in [{1 / self.sample_rate:g}, inf) s (at least one sample "
+                f"at {self.sample_rate} Hz); got {self.duration!r}"
+            )
+        if self.controller not in CONTROLLERS:
+            raise ValueError(f"controller must be one of {CONTROLLERS}; got {self.controller!r}")
+        for name in ("stiffness_1", "stiffness_2", "bias_1", "bias_2", "fb_bias"):
+            _pair(name, getattr(self, name))
+        for name in ("sigma_m1", "sigma_m2", "sigma_acc", "sigma_ele", "fb_sigma"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"{name} must be finite and in [0, inf); got {v!r}")
+        for name in ("f_max", "gap", "alpha1", "alpha2", "rls_p0", "divergence_bound"):
+            _positive(name, getattr(self, name))
+        if not (math.isfinite(self.rls_lambda) and 0 < self.rls_lambda <= 1):
+            raise ValueError(f"rls_lambda must be in (0, 1]; got {self.rls_lambda!r}")
+        if len(self.rls_scales) != 3:
+            raise ValueError(f"rls_scales must be 3 numbers > 0; got {self.rls_scales!r}")
+        for v in self.rls_scales:
+            _positive("rls_scales", v)
+        if not (math.isfinite(self.steady_after) and 0 <= self.steady_after):
+            raise ValueError(f"steady_after must be in [0, inf) s; got {self.steady_after!r}")
+        if self.record not in ("full", "estimates"):
+            raise ValueError(f"record must be 'full' or 'estimates'; got {self.record!r}")
+        if not isinstance(self.geometry, Geometry):
+            raise ValueError("geometry must be a tmopt.physics.geometry.Geometry")
+        if not isinstance(self.control, ControllerSettings):
+            raise ValueError("control must be a tmopt.physics.control.ControllerSettings")
+
+    @property
+    def dt(self) -> float:
+        return 1.0 / self.sample_rate
+
+    @property
+    def n_steps(self) -> int:
+        return int(round(self.duration * self.sample_rate))
+
+    @property
+    def nyquist(self) -> float:
+        """Nyquist angular frequency ``pi * sample_rate`` [rad/s]."""
+        return math.pi * self.sample_rate
+
+    @property
+    def coefficients(self) -> np.ndarray:
+        """K of Eq. 11 for this geometry."""
+        return self.geometry.coefficients()
+
+    @property
+    def theta_true(self) -> np.ndarray:
+        """True ``theta = [k1xx, k2xx, k1yy, k2yy, R]`` with ``R = K . f_D`` (Eqs. 13-15)."""
+        fd = np.array([self.bias_1[0], self.bias_2[0], self.bias_1[1], self.bias_2[1]])
+        k = [self.stiffness_1[0], self.stiffness_2[0], self.stiffness_1[1], self.stiffness_2[1]]
+        return np.array(k + [float(self.coefficients @ fd)])
+
+    def sigmas(self) -> np.ndarray:
+        return noise_sigmas(
+            self.sigma_m1, self.sigma_m2, self.sigma_acc, self.sigma_ele, self.fb_sigma
+        )
+
+
+@dataclass
+class SimulationResult:
+    """Output of :func:`simulate` for B designs and N samples.
+
+    ``channels`` (16, B, N) in :data:`CHANNEL_NAMES` order (``None`` when
+    ``config.record == "estimates"``); each is also an attribute, e.g. ``result.x1``
+    (measured) and ``result.x1_true``.  ``theta_hat`` (B, N, 5) is the RLS estimate after
+    sample n.  ``diverged`` (B,) flags designs whose loop left the bound or went
+    non-finite; ``reason[i]`` says why ('' when fine) and ``diverged_at`` (B,) gives the
+    time [s] (NaN-free: -1 when fine).  After divergence every channel holds its last
+    value.  ``max_tracking_error`` / ``steady_tracking_error`` (B, 2) are ``max|r - x|``
+    (true x) of TM1/TM2 over the whole run and over ``t >= config.steady_after``.
+    """
+
+    time: np.ndarray
+    ref_x1: np.ndarray
+    ref_x2: np.ndarray
+    theta_hat: np.ndarray
+    channels: np.ndarray | None
+    diverged: np.ndarray
+    reason: list[str]
+    diverged_at: np.ndarray
+    max_tracking_error: np.ndarray
+    steady_tracking_error: np.ndarray
+    config: SimulationConfig
+    seed: int
+
+    def __getattr__(self, name: str) -> np.ndarray:
+        if name in CHANNEL_NAMES:
+            if self.channels is None:
+                raise AttributeError(f"{name} not recorded (config.record='estimates')")
+            return self.channels[CHANNEL_NAMES.index(name)]
+        raise AttributeError(name)
+
+    @property
+    def batch_size(self) -> int:
+        return self.theta_hat.shape[0]
+
+    @property
+    def feasible(self) -> np.ndarray:
+        """Closed loop stayed bounded and finite (B,)."""
+        return ~self.diverged
+
+    def design(self, i: int) -> dict[str, np.ndarray]:
+        """Design ``i`` as 1-D channels: time, x1..y2 (measured), *_true, acc_*, force_*,
+        ref_x1, ref_x2, and theta_hat (N, 5)."""
+        out = {"time": self.time, "ref_x1": self.ref_x1[i], "ref_x2": self.ref_x2[i]}
+        if self.channels is not None:
+            for k, name in enumerate(CHANNEL_NAMES):
+                out[name] = self.channels[k, i]
+        out["theta_hat"] = self.theta_hat[i]
+        return out
+
+
+def _reference(name: str, ref: MultiSine | np.ndarray, t: np.ndarray, cfg: SimulationConfig):
+    if isinstance(ref, MultiSine):
+        ref.check_nyquist(cfg.sample_rate)
+        return np.ascontiguousarray(ref.evaluate(t))
+    arr = np.asarray(ref, dtype=np.float64)
+    if arr.ndim == 1:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != t.size:
+        raise ValueError(f"{name} must be a MultiSine or an array (B, {t.size}); got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite (no NaN/inf)")
+    return np.ascontiguousarray(arr)
+
+
+def _pack_parameters(cfg: SimulationConfig) -> np.ndarray:
+    """Flatten the configuration into the kernel's parameter vector (layout in _closed_loop)."""
+    par = np.zeros(cl.N_PAR)
+    ctl = cfg.control
+    par[cl.P_DT] = cfg.dt
+    par[cl.P_K : cl.P_K + 4] = cfg.theta_true[:4]
+    par[cl.P_FD : cl.P_FD + 4] = [cfg.bias_1[0], cfg.bias_2[0], cfg.bias_1[1], cfg.bias_2[1]]
+    par[cl.P_FB : cl.P_FB + 2] = cfg.fb_bias
+    par[cl.P_WSA : cl.P_WSA + 4] = cfg.geometry.w_sa[:2, :2].ravel()
+    par[cl.P_WSB : cl.P_WSB + 4] = cfg.geometry.w_sb[:2, :2].ravel()
+    par[cl.P_KC : cl.P_KC + 4] = cfg.coefficients
+    par[cl.P_FMAX] = cfg.f_max
+    par[cl.P_XGAIN : cl.P_XGAIN + 3] = ctl.base_gains
+    par[cl.P_YGAIN : cl.P_YGAIN + 3] = ctl.y_gains
+    par[cl.P_ESCALE] = ctl.error_scale
+    par[cl.P_ECSCALE] = ctl.error_rate_scale
+    par[cl.P_ETA] = ctl.learning_rate
+    par[cl.P_MOM] = ctl.momentum
+    par[cl.P_GLO], par[cl.P_GHI] = ctl.gain_bounds
+    par[cl.P_BMIN] = ctl.width_min
+    par[cl.P_LAM] = cfg.rls_lambda
+    par[cl.P_P0] = cfg.rls_p0
+    par[cl.P_SX], par[cl.P_SY], par[cl.P_SOUT] = cfg.rls_scales
+    par[cl.P_BOUND] = cfg.divergence_bound
+    par[cl.P_FRBF] = 1.0 if cfg.controller == "frbf_pid" else 0.0
+    par[cl.P_STEADY] = math.ceil(cfg.steady_after * cfg.sample_rate - 1e-9)
+    return par
+
+
+def prepare(
+    ref1: MultiSine | np.ndarray,
+    ref2: MultiSine | np.ndarray,
+    config: SimulationConfig,
+    seed: int,
+) -> dict:
+    """Validated kernel inputs and zeroed outputs (shared by the batch and reference paths)."""
+    if not isinstance(config, SimulationConfig):
+        raise ValueError("config must be a SimulationConfig")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be an integer in [0, inf); got {seed!r}")
+    t = sample_times(config.duration, config.sample_rate)
+    r1, r2 = _reference("ref1", ref1, t, config), _reference("ref2", ref2, t, config)
+    if r1.shape[0] != r2.shape[0]:
+        raise ValueError(f"ref1 and ref2 must hold the same number of designs; "
+                         f"got {r1.shape[0]} and {r2.shape[0]}")  # fmt: skip
+    b, n = r1.shape
+    record = config.record == "full"
+    return {
+        "time": t,
+        "ref1": r1,
+        "ref2": r2,
+        "noise": noise_realisation(int(seed), n, config.sigmas()),
+        "par": _pack_parameters(config),
+        "c0": np.asarray(config.control.centres, dtype=np.float64),
+        "b0": float(config.control.width),
+        # every sample is written by the kernel (or held after divergence): no zero-fill
+        "out_ch": np.empty((cl.N_CH, b, n) if record else (cl.N_CH, 1, 1)),
+        "out_th": np.empty((b, n, cl.N_THETA)),
+        "summary": np.zeros((b, 4)),
+        "status": np.zeros((b, 2), dtype=np.int64),
+        "record": record,
+    }
+
+
+def _finish(io: dict, config: SimulationConfig, seed: int) -> SimulationResult:
+    code, last = io["status"][:, 0], io["status"][:, 1]
+    diverged = code != cl.OK
+    bound = config.divergence_bound
+    reasons = [
+        f"{REASONS[int(c)]} (bound {bound:g} m) at t = {l / config.sample_rate:.1f} s"
+        if c != cl.OK else ""
+        for c, l in zip(code, last)
+    ]  # fmt: skip
+    return SimulationResult(
+        time=io["time"],
+        ref_x1=io["ref1"],
+        ref_x2=io["ref2"],
+        theta_hat=io["out_th"],
+        channels=io["out_ch"] if io["record"] else None,
+        diverged=diverged,
+        reason=reasons,
+        diverged_at=np.where(diverged, last / config.sample_rate, -1.0),
+        max_tracking_error=io["summary"][:, :2].copy(),
+        steady_tracking_error=io["summary"][:, 2:].copy(),
+        config=config,
+        seed=int(seed),
+    )
+
+
+_KERNEL_ARGS = ("ref1", "ref2", "noise", "par", "c0", "b0", "out_ch", "out_th", "summary",
+                "status", "record")  # fmt: skip
+
+
+def simulate(
+    ref1: MultiSine | np.ndarray,
+    ref2: MultiSine | np.ndarray,
+    config: SimulationConfig | None = None,
+    seed: int = 0,
+) -> SimulationResult:
+    """Closed-loop simulation + online identification of B designs at once (compiled).
+
+    ``ref1`` / ``ref2``: sensitive-axis references of TM1 / TM2, each a :class:`MultiSine`
+    with B designs or an array (B, N) sampled at ``config``'s grid.  ``seed`` selects the
+    noise realisation, common to all designs (so design i's result does not depend on the
+    batch it is in).
+    """
+    config = SimulationConfig() if config is None else config
+    io = prepare(ref1, ref2, config, seed)
+    cl.batch_kernel(*(io[k] for k in _KERNEL_ARGS))
+    return _finish(io, config, seed)
+
+
+def simulate_reference(
+    ref1: MultiSine | np.ndarray,
+    ref2: MultiSine | np.ndarray,
+    config: SimulationConfig | None = None,
+    seed: int = 0,
+) -> SimulationResult:
+    """The same model run design by design in the plain Python interpreter (slow).
+
+    Calls the very same step functions as :func:`simulate`, uncompiled: the benchmark's
+    reference and an independent check that compilation does not change the model.
+    """
+    config = SimulationConfig() if config is None else config
+    io = prepare(ref1, ref2, config, seed)
+    args = [io[k] for k in _KERNEL_ARGS]
+    for i in range(io["ref1"].shape[0]):
+        cl.run_design(i, *args)
+    return _finish(io, config, seed)
