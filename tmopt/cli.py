@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 import sys
 from pathlib import Path
 
@@ -59,9 +60,10 @@ def preflight(args: list[str]) -> int:
         _check_group_values(key, vals)
         values[ov.input_line] = [_as_override(ov, v) for v in vals]
     combos = _combinations(list(values.values()))
+    multirun = bool(MULTIRUN_FLAGS.intersection(args))
     with _hydra_context():
         for combo in combos:
-            _check_one(combo)
+            _check_one(combo, multirun)
     return len(combos)
 
 
@@ -91,13 +93,25 @@ def _combinations(value_lists: list[list[str]]) -> list[list[str]]:
     return combos
 
 
-def _check_one(overrides: list[str]) -> None:
+def _check_one(overrides: list[str], multirun: bool) -> None:
     try:
         cfg = compose(config_name="config", overrides=overrides, return_hydra_config=True)
+        outdir = cfg.hydra.sweep.dir if multirun else cfg.hydra.run.dir
     except Exception as exc:  # noqa: BLE001 - turn Hydra's report into one line
         raise ConfigError(_composition_message(exc, overrides)) from None
-    choices = dict(cfg.hydra.runtime.choices)
-    build(cfg, choices)
+    _check_output_dir(Path(outdir))
+    build(cfg, dict(cfg.hydra.runtime.choices))
+
+
+def _check_output_dir(path: Path) -> None:
+    """The output folder must exist as a writable folder or be creatable."""
+    ancestor = path
+    while not ancestor.exists() and ancestor != ancestor.parent:
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        raise ConfigError(f"output folder {path} cannot be created: {ancestor} is a file")
+    if not os.access(ancestor, os.W_OK | os.X_OK):
+        raise ConfigError(f"output folder {path} is not writable ({ancestor} is read-only)")
 
 
 def _composition_message(exc: Exception, overrides: list[str]) -> str:
