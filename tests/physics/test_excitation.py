@@ -1,0 +1,49 @@
+"""Multi-sine reference of Eq. 17."""
+
+import math
+
+import numpy as np
+import pytest
+
+from tmopt.physics.excitation import MultiSine, sample_times
+
+
+def test_starts_at_zero_for_any_phase():
+    rng = np.random.default_rng(0)
+    ms = MultiSine(rng.uniform(0, 1e-4, (50, 3)), rng.uniform(0, 1, (50, 3)),
+                   rng.uniform(-math.pi, math.pi, (50, 3)))  # fmt: skip
+    assert np.all(ms.evaluate(np.array([0.0]))[:, 0] == 0.0)
+
+
+def test_evaluate_matches_eq_17_with_bias():
+    a, w, p = np.array([[1e-5, 2e-5]]), np.array([[0.02, 0.05]]), np.array([[0.3, 2.0]])
+    t = np.linspace(0, 100, 7)
+    expected = sum(a[0, i] * np.sin(w[0, i] * t + p[0, i]) - a[0, i] * np.sin(p[0, i])
+                   for i in range(2))  # fmt: skip
+    np.testing.assert_allclose(MultiSine(a, w, p).evaluate(t)[0], expected, rtol=1e-14)
+
+
+def test_shapes_broadcast_and_helpers():
+    ms = MultiSine([[1e-4], [2e-5]], 2 * math.pi / 300, 0.0)
+    assert (ms.batch_size, ms.n_components) == (2, 1)
+    np.testing.assert_allclose(ms.max_accel(), [1e-4, 2e-5] * np.array((2 * math.pi / 300) ** 2))
+    np.testing.assert_allclose(ms.max_abs(), [1e-4, 2e-5], rtol=1e-6)  # full periods sampled
+    assert ms.take(1).amplitude[0, 0] == 2e-5
+    assert sample_times(1.0, 10.0).size == 10
+
+
+@pytest.mark.parametrize(
+    "kwargs,match",
+    [
+        ({"amplitude": -1e-5, "omega": 0.1}, "amplitude"),
+        ({"amplitude": float("nan"), "omega": 0.1}, "amplitude"),
+        ({"amplitude": 1e-5, "omega": float("inf")}, "omega"),
+        ({"amplitude": 1e-5, "omega": -0.1}, "omega"),
+        ({"amplitude": 1e-5, "omega": 0.1, "phase": float("nan")}, "phase"),
+        ({"amplitude": 1e-5, "omega": math.pi * 10, "sample_rate": 10.0}, "Nyquist"),
+        ({"amplitude": [1e-5, 1e-5], "omega": [0.1, 0.2, 0.3]}, "broadcast"),
+    ],
+)
+def test_bad_parameters_raise_value_error_naming_them(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        MultiSine(**kwargs)
