@@ -132,6 +132,9 @@ def test_both_controllers_track_the_fig6_reference(controller):
 def test_integral_freezes_under_saturation():
     from tmopt.physics.control import pid_increment
 
-    assert pid_increment(1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.5) == 0.0  # Ki e dropped
-    assert pid_increment(0.1, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.5) == 0.1
-    assert pid_increment(1.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.5) == 0.5  # clipped
+    # args: e, e1, e2, u_prev, kp, ki, kd, fmax
+    assert pid_increment(1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.5) == 0.5  # clipped
+    assert pid_increment(1.0, 1.0, 1.0, 0.5, 0.0, 1.0, 0.0, 0.5) == 0.5  # frozen at limit
+    assert pid_increment(1.0, 1.0, 1.0, 0.5, 0.0, 1.0, -0.1, 0.5) == 0.5
+    assert pid_increment(-0.2, -0.2, -0.2, 0.5, 0.0, 1.0, 0.0, 0.5) == 0.3  # unwinds
+    assert pid_increment(1.0, 1.0, 1.0, 0.5, 0.0, 0.0, 0.0, 0.5) == 0.5

@@ -83,15 +83,16 @@ def zoh_coefficients(k, h):
 def pid_increment(e, e1, e2, u_prev, kp, ki, kd, fmax):
     """Incremental PID of Eq. 28 with output limit and integral freeze (Sec. 3.3).
 
-    ``u_n = u_{n-1} + Kp (e_n - e_{n-1}) + Ki e_n + Kd (e_n - 2 e_{n-1} + e_{n-2})``;
-    if that exceeds ``+-fmax`` the ``Ki e_n`` term is dropped for this step (integral
-    frozen) and the result is clipped.
+    ``u_n = u_{n-1} + Kp (e_n - e_{n-1}) + Ki e_n + Kd (e_n - 2 e_{n-1} + e_{n-2})``,
+    clipped to ``+-fmax``.  While the output sits at the limit (``|u_{n-1}| = fmax``) the
+    integral increment ``Ki e_n`` is dropped if it pushes further into saturation
+    (conditional integration: the integral is frozen, it can still unwind).
     """
-    u_pd = u_prev + kp * (e - e1) + kd * (e - 2.0 * e1 + e2)
-    u = u_pd + ki * e
-    if abs(u) > fmax:
-        u = min(max(u_pd, -fmax), fmax)
-    return u
+    du_i = ki * e
+    if abs(u_prev) >= fmax and du_i * u_prev > 0:
+        du_i = 0.0
+    u = u_prev + kp * (e - e1) + du_i + kd * (e - 2.0 * e1 + e2)
+    return min(max(u, -fmax), fmax)
 
 
 @register_jitable
