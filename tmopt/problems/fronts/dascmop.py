@@ -22,7 +22,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from tmopt.problems.fronts.sampling import FrontSample, lowest_feasible, nondominated_index
+from tmopt.problems.fronts.sampling import (
+    FrontSample,
+    lowest_feasible,
+    lowest_feasible_curve,
+    nondominated_index,
+    thin_curve,
+)
 
 #: The 16 difficulty triplets (eta, zeta, gamma) of Fan et al. 2020, Table 2 (pymoo order).
 DIFFICULTIES: tuple[tuple[float, float, float], ...] = (
@@ -99,19 +105,27 @@ def front_sample(k: int, difficulty=8, n_points: int = 2000) -> FrontSample:
         raise ValueError(f"DAS-CMOP problem number must be in 1..9, got {k}")
     eta, zeta, gamma = triplet(difficulty)
     b = 2 * eta - 1
-    if k <= 6:
-        # DAS-CMOP3/6 fronts are short pieces of a wavy curve: sample them ten times denser.
-        pos = _type1_values(n_points * (10 if k % 3 == 0 else 1), b)[:, None]
-        base = _base2(k, pos[:, 0])
-    else:
-        side = max(int(np.sqrt(n_points)), 2)
-        x1, x2 = np.meshgrid(_type1_values(side, b), _type1_values(side, b, use_cos=True))
-        pos = np.column_stack([x1.ravel(), x2.ravel()])
-        base = _base3(k, pos[:, 0], pos[:, 1])
     g_lo, g_hi = g_range(zeta)
     feasible = lambda F: np.all(type3(F, gamma) <= 0.0, axis=1)  # noqa: E731
-    F, index, s = lowest_feasible(base + g_lo, feasible, min(g_hi - g_lo, 3.0),
-                                  shift=np.ones(base.shape[1]), n_grid=600)
+    span, shift = min(g_hi - g_lo, 3.0), np.ones(2 if k <= 6 else 3)
+    if k <= 6:
+        def curve(t):  # type-I infeasible positions become NaN rows, i.e. infeasible
+            base = _base2(k, t) + g_lo
+            base[np.sin(20 * np.pi * t) < b] = np.nan
+            return base
+
+        # DAS-CMOP3/6 fronts are short pieces of a wavy curve: sample them ten times denser.
+        t0 = np.linspace(0.0, 1.0, n_points * (10 if k % 3 == 0 else 1))
+        F, t, s = lowest_feasible_curve(curve, t0, feasible, span, shift, n_grid=600)
+        sample = FrontSample(F, t[:, None], g_lo + s)
+        nd = nondominated_index(F)
+        sample = sample.take(nd[np.argsort(F[nd, 0], kind="stable")])
+        return sample.take(thin_curve(sample.F, n_points))
+    side = max(int(np.sqrt(n_points)), 2)
+    x1, x2 = np.meshgrid(_type1_values(side, b), _type1_values(side, b, use_cos=True))
+    pos = np.column_stack([x1.ravel(), x2.ravel()])
+    F, index, s = lowest_feasible(_base3(k, pos[:, 0], pos[:, 1]) + g_lo, feasible, span,
+                                  shift=shift, n_grid=600)
     sample = FrontSample(F, pos[index], g_lo + s)
     return sample.take(nondominated_index(F))
 

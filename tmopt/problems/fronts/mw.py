@@ -21,11 +21,12 @@ import numpy as np
 
 from tmopt.problems.fronts.sampling import (
     FrontSample,
-    lowest_feasible,
+    lowest_feasible_curve,
     nondominated,
     nondominated_index,
     simplex_points,
     sphere_points,
+    thin_curve,
 )
 
 SQ2 = np.sqrt(2.0)
@@ -191,15 +192,18 @@ _SPECIAL_T = {
 
 def _curve_front(k: int, n_points: int) -> FrontSample:
     (lo, hi), curve, shift, s_max = _CURVES[k]
-    t = np.linspace(lo, hi, n_points)
+    # MW5's front is short arcs around 16 points: sample ten times denser, then thin.
+    t = np.linspace(lo, hi, n_points * (10 if k == 5 else 1))
     if k in _SPECIAL_T:
         t = np.union1d(t, _SPECIAL_T[k]())
-    base = np.column_stack(curve(t))
     shift = None if shift is None else np.asarray(shift, dtype=float)
-    F, index, s = lowest_feasible(base, _feasible(k), s_max, shift)
+    F, t, s = lowest_feasible_curve(lambda u: np.column_stack(curve(u)), t, _feasible(k),
+                                    s_max, shift, n_grid=1000)
     # MW1-3: f2 = g - c f1 with g = 1 + s; MW4-14: F = g B(t) with g = s.
-    sample = FrontSample(F, t[index][:, None], s + 1.0 if shift is not None else s)
-    return sample.take(nondominated_index(F))
+    sample = FrontSample(F, t[:, None], s + 1.0 if shift is not None else s)
+    nd = nondominated_index(F)
+    sample = sample.take(nd[np.argsort(F[nd, 0], kind="stable")])
+    return sample.take(thin_curve(sample.F, n_points))
 
 
 def mw4_front(n_obj: int, n_points: int) -> FrontSample:

@@ -89,6 +89,76 @@ def lowest_feasible(base: np.ndarray, feasible: Feasible, s_max: float,
     return _moved(base, hi, shift), index, hi
 
 
+def lowest_feasible_curve(curve: Callable[[np.ndarray], np.ndarray], t: np.ndarray,
+                          feasible: Feasible, s_max: float, shift: np.ndarray | None = None,
+                          levels: int = 4, per_gap: int = 16, n_grid: int = 400
+                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`lowest_feasible` along a curve ``B(t)``, refined where the result jumps.
+
+    The lowest feasible distance can jump where one constraint takes over from another,
+    and a front point just after such a jump is dominated by points just before it that
+    a uniform grid may not contain. So every interval of ``t`` across which feasibility
+    changes or the point moves by more than ten median steps gets ``per_gap`` extra
+    samples, ``levels`` times over; the result then resolves each jump to about
+    ``(t spacing) / per_gap**levels``.
+
+    Returns:
+        ``(F, t, s)`` of the feasible rays, ordered by ``t``.
+    """
+    t = np.unique(np.asarray(t, dtype=float))
+    F, idx, s = lowest_feasible(curve(t), feasible, s_max, shift, n_grid)
+    for _ in range(levels):
+        extra = _gap_samples(t, idx, F, per_gap)
+        if extra.size == 0:
+            break
+        F2, idx2, s2 = lowest_feasible(curve(extra), feasible, s_max, shift, n_grid)
+        t_all = np.concatenate([t[idx], extra[idx2]])
+        order = np.argsort(t_all)
+        F = np.vstack([F, F2])[order]
+        s = np.concatenate([s, s2])[order]
+        t = np.union1d(t, extra)
+        idx = np.searchsorted(t, t_all[order])
+    return F, t[idx], s
+
+
+def _gap_samples(t: np.ndarray, idx: np.ndarray, F: np.ndarray, per_gap: int) -> np.ndarray:
+    """New t values inside the intervals where feasibility changes or F jumps."""
+    found = np.zeros(len(t), dtype=bool)
+    found[idx] = True
+    point = np.full((len(t), F.shape[1]), np.nan)
+    point[idx] = F
+    step = np.linalg.norm(np.diff(point, axis=0), axis=1)
+    typical = np.nanmedian(step) if np.any(np.isfinite(step)) else 0.0
+    jump = (found[:-1] != found[1:]) | (np.nan_to_num(step, nan=0.0) > 10 * typical)
+    lo, hi = t[:-1][jump], t[1:][jump]
+    frac = np.arange(1, per_gap + 1) / (per_gap + 1)
+    return (lo[:, None] + (hi - lo)[:, None] * frac[None, :]).ravel()
+
+
+def thin_curve(F: np.ndarray, n_points: int) -> np.ndarray:
+    """Indices of about ``n_points`` rows of a 2-D front spread evenly along it.
+
+    ``F`` must be sorted by the first objective. Walking along it, a point is kept when it
+    is at least ``h`` from the last kept one, with ``h`` the front's length (steps larger
+    than ten median steps, i.e. gaps between pieces, not counted) over ``n_points``. The
+    end points of every piece are always kept, so the front's extent is not shortened.
+    """
+    if len(F) <= n_points:
+        return np.arange(len(F))
+    step = np.linalg.norm(np.diff(F, axis=0), axis=1)
+    gap = step > 10 * np.median(step)
+    h = step[~gap].sum() / n_points
+    keep = [0]
+    walked = 0.0
+    for i in range(1, len(F)):
+        walked += step[i - 1]
+        piece_end = i == len(F) - 1 or gap[i] or gap[i - 1]
+        if walked >= h or piece_end:
+            keep.append(i)
+            walked = 0.0
+    return np.array(keep)
+
+
 def nondominated_index(F: np.ndarray) -> np.ndarray:
     """Rows of ``F`` that no other row dominates, one per distinct vector, sorted.
 
@@ -135,3 +205,16 @@ def sphere_points(n_obj: int, n_points: int) -> np.ndarray:
     """Simplex points projected onto the positive unit sphere."""
     W = simplex_points(n_obj, n_points)
     return W / np.linalg.norm(W, axis=1, keepdims=True)
+
+
+def grid_front(base: np.ndarray, feasible: Feasible, s_values: np.ndarray,
+               shift: np.ndarray | None = None) -> np.ndarray:
+    """Brute-force front for checks: every base point at every distance, feasible, ND.
+
+    Independent of :func:`lowest_feasible` (no walk, no bisection): all ``len(base) x
+    len(s_values)`` candidates are evaluated and the non-dominated feasible ones kept.
+    """
+    base = np.asarray(base, dtype=float)
+    s = np.repeat(np.asarray(s_values, dtype=float), len(base))
+    F = _moved(np.tile(base, (len(s_values), 1)), s, shift)
+    return nondominated(F[feasible(F)])
