@@ -1,0 +1,276 @@
+"""MGSAEA, MGSAEA-IPC and MGSAEA*: stages, granularity, budget, reproducibility, bad input.
+
+The surrogate here is a test double (scipy's thin-plate RBF interpolator behind the
+:class:`Surrogate` interface) so these tests stay fast; the GP default is exercised in
+test_mgsaea_gp.py.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from omegaconf import OmegaConf
+from scipy.interpolate import RBFInterpolator
+
+from tmopt.algorithms.base import AlgorithmConfigError
+from tmopt.algorithms.mgsaea import (
+    MGSAEA,
+    MGSAEAIPC,
+    AlgorithmStateError,
+    MGSAEAStar,
+    ModelPlan,
+    _Set,
+    violation_scale,
+)
+from tmopt.algorithms.selection import total_violation
+from tmopt.config import check_node
+from tmopt.metrics.selection import best_compromise
+from tmopt.problems.base import ConstraintGroup, ExpensiveProblem
+from tmopt.problems.suites import PymooBenchmark
+from tmopt.runner import run_optimisation
+from tmopt.surrogates.base import Surrogate
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+class RBFDouble(Surrogate):
+    """Thin-plate RBF interpolation: a cheap, deterministic stand-in for a GP."""
+
+    name = "rbf_double"
+    widths: list[int] = []
+
+    def fit(self, X, Y):
+        X, Y = self.check_training_data(X, Y)
+        RBFDouble.widths.append(Y.shape[1])
+        self.model = RBFInterpolator(X, Y, kernel="thin_plate_spline", smoothing=1e-8)
+        return self
+
+    def predict(self, X):
+        mean = self.model(np.asarray(X, dtype=float))
+        return mean, np.zeros_like(mean)
+
+
+class TwoGroupProblem(ExpensiveProblem):
+    """2 objectives, 3 constraints; TM1 (key, priority 0) owns g3, TM2 owns g1 and g2."""
+
+    def __init__(self, n_var: int = 4) -> None:
+        super().__init__(n_var=n_var, n_obj=2, n_ieq_constr=3, xl=0.0, xu=1.0,
+                         name="two_group",
+                         constraint_groups=[ConstraintGroup("TM2", (0, 1), 1),
+                                            ConstraintGroup("TM1", (2,), 0)])
+
+    def _evaluate(self, X, out, *args, **kwargs):
+        f1 = X[:, 0]
+        f2 = 1.0 - np.sqrt(X[:, 0]) + np.sum((X[:, 1:] - 0.5) ** 2, axis=1)
+        out["F"] = np.column_stack([f1, f2])
+        out["G"] = np.column_stack([0.3 - X[:, 1], X[:, 2] - 0.8, 0.5 - X[:, 3]])
+
+
+def run(alg, problem, budget, seed=0):
+    return run_optimisation(problem, alg, budget=budget, seed=seed, progress=False, plots=False)
+
+
+def small(cls=MGSAEA, **kw):
+    defaults = {"n_init": 20, "wmax": 5, "surrogate": RBFDouble}
+    return cls(**{**defaults, **kw})
+
+
+# ---- bad input -------------------------------------------------------------------------------
+@pytest.mark.parametrize("kwargs, text", [
+    ({"wmax": -1}, "wmax must be an integer >= 0, got -1"),
+    ({"mu": 0}, "mu must be an integer >= 1, got 0"),
+    ({"gap": 2.5}, "gap must be an integer >= 1, got 2.5"),
+    ({"threshold": 0.0}, "threshold must be a positive finite number, got 0.0"),
+    ({"sigma": float("nan")}, "sigma must be a positive finite number"),
+    ({"n_init": 1}, "n_init must be an integer >= 2, got 1"),
+    ({"surrogate": "gp"}, "surrogate must be a zero-argument factory"),
+])
+def test_bad_arguments_name_the_algorithm_and_value(kwargs, text):
+    with pytest.raises(AlgorithmConfigError, match="algorithm mgsaea: " + text.split(",")[0]):
+        MGSAEA(**kwargs)
+
+
+def test_budget_below_the_lhs_sample_is_refused_with_the_numbers():
+    problem = PymooBenchmark("mw3", n_var=10)
+    with pytest.raises(AlgorithmConfigError,
+                       match=r"mgsaea_ipc: budget=100 .* initial sample of 109"):
+        run(MGSAEAIPC(surrogate=RBFDouble), problem, budget=100)
+
+
+def test_ipc_without_groups_and_without_fallback_is_refused():
+    problem = PymooBenchmark("mw3", n_var=10)
+    alg = MGSAEAIPC(surrogate=RBFDouble, ungrouped="error")
+    with pytest.raises(AlgorithmConfigError, match="mgsaea_ipc: problem mw3 declares no "
+                                                   "constraint groups"):
+        alg.check_budget(problem, 300)
+    with pytest.raises(AlgorithmConfigError, match="ungrouped must be 'first' or 'error'"):
+        MGSAEAIPC(ungrouped="half")
+
+
+# ---- what each variant models in stage one --------------------------------------------------
+@pytest.mark.parametrize("cls, n_outputs, con", [
+    (MGSAEA, 2, ()),            # objectives only
+    (MGSAEAIPC, 3, (2,)),       # + the key individual's constraint g3 (TM1)
+    (MGSAEAStar, 5, (0, 1, 2)),  # + every constraint
+])
+def test_stage_one_models_per_variant(cls, n_outputs, con):
+    RBFDouble.widths = []
+    alg = small(cls)
+    run(alg, TwoGroupProblem(), budget=30)
+    assert alg.stage == 1 and alg.iteration == 2
+    assert set(RBFDouble.widths) == {n_outputs}
+    assert alg._plan.con == con
+    assert alg.info()["models"] == n_outputs
+
+
+def test_ipc_key_group_follows_declared_priority_and_split_grouping():
+    alg = MGSAEAIPC()
+    assert alg.stage_one_indices(TwoGroupProblem()) == (2,)
+    assert alg.stage_one_indices(PymooBenchmark("mw3", n_var=10,
+                                                constraint_groups="split")) == (0,)
+    assert alg.stage_one_indices(PymooBenchmark("mw3", n_var=10)) == (0,)  # ungrouped=first
+    assert MGSAEAStar().stage_one_indices(TwoGroupProblem()) == (0, 1, 2)
+
+
+# ---- stage switch and granularity -----------------------------------------------------------
+def test_stage_switch_after_gap_iterations_when_mc_is_below_threshold():
+    alg = small(MGSAEAIPC, gap=2, threshold=1e9)  # any change rate switches
+    run(alg, TwoGroupProblem(), budget=20 + 4 * 5)
+    assert alg.stage == 2
+    assert len(alg._ideal) == 4 and alg.last_mc is not None
+    assert alg.info()["granularity"] in ("coarse", "fine", "objectives")
+
+    never = small(MGSAEAIPC, gap=2, threshold=1e-300)
+    run(never, TwoGroupProblem(), budget=20 + 4 * 5)
+    assert never.stage == 1
+
+
+def _stage_two(G: np.ndarray) -> ModelPlan:
+    alg = small(MGSAEA)
+    alg.setup(TwoGroupProblem(), budget=100, seed=0)
+    alg._pop = _Set(np.zeros((len(G), 4)), np.zeros((len(G), 2)), G)
+    alg.stage = 2
+    return alg._make_plan()
+
+
+def test_stage_two_granularity_plans():
+    coarse = _stage_two(np.array([[1.0, -1.0, -1.0], [-1.0, 2.0, 0.0], [-1, -1, 4.0]]))
+    assert (coarse.granularity, coarse.mode, coarse.con, coarse.aggregate) == \
+        ("coarse", "cdp", (0, 1, 2), True)
+    fine = _stage_two(np.array([[1.0, -1.0, -1.0], [-1.0, -2.0, 0.0]]))
+    assert (fine.granularity, fine.mode, fine.con, fine.aggregate) == ("fine", "fine", (0,),
+                                                                       False)
+    assert fine.pop_con == (0, 1, 2)  # the real population is ranked on every constraint
+    feas = _stage_two(-np.ones((2, 3)))
+    assert (feas.granularity, feas.mode, feas.con, feas.pop_mode) == \
+        ("objectives", "pareto", (), "cdp")
+
+
+def test_coarse_target_is_scaled_violation_that_keeps_feasible_at_zero():
+    G = np.array([[2.0, -1.0], [1.0, 4.0], [-3.0, -1.0]])
+    scale = violation_scale(G)
+    assert scale.tolist() == [2.0, 4.0]
+    plan = ModelPlan("coarse", "cdp", (0, 1), True, "cdp", (0, 1), scale)
+    Y = plan.targets(np.zeros((3, 2)), G)
+    assert np.allclose(Y[:, 2], [1.0, 0.5 + 1.0, 0.0])  # min-max would zero row 0 too
+
+
+# ---- runs ------------------------------------------------------------------------------------
+def test_ipc_on_mw3_budget_150_runs_end_to_end_and_reaches_feasibility():
+    problem = PymooBenchmark("mw3", n_var=10)
+    alg = MGSAEAIPC(surrogate=RBFDouble)
+    res = run(alg, problem, budget=150)
+    assert len(res.archive) == 150
+    assert res.metrics["feasible_ratio"] > 0
+    # every design was sent once: no budget spent on re-evaluations
+    assert len(np.unique(res.archive.X, axis=0)) == 150
+    assert len(alg.archive["X"]) <= alg.pop_size
+
+
+def test_same_seed_same_archive_other_seed_other_archive():
+    problem = TwoGroupProblem()
+    a = run(small(MGSAEAIPC), problem, budget=40, seed=3)
+    b = run(small(MGSAEAIPC), problem, budget=40, seed=3)
+    c = run(small(MGSAEAIPC), problem, budget=40, seed=4)
+    assert np.array_equal(a.archive.X, b.archive.X)
+    assert np.array_equal(a.archive.F, b.archive.F)
+    assert not np.array_equal(a.archive.X, c.archive.X)
+
+
+def test_population_stays_ni_and_archive_is_cut_to_n():
+    alg = small(MGSAEA, pop_size=10)
+    run(alg, TwoGroupProblem(), budget=40)
+    assert len(alg._pop) == 20
+    assert len(alg.archive["X"]) == 10
+
+
+def test_max_iter_ends_the_run_before_the_budget():
+    res = run(small(MGSAEA, max_iter=2), TwoGroupProblem(), budget=100)
+    assert len(res.archive) == 20 + 2 * 5
+
+
+def test_final_solution_is_eq21_among_feasible_non_dominated_archive_members():
+    alg = small(MGSAEAStar)
+    run(alg, TwoGroupProblem(), budget=60)
+    best = alg.final_solution()
+    arc = alg.archive
+    feas = total_violation(arc["G"]) <= 0
+    assert best["feasible"] == bool(feas.any())
+    if best["feasible"]:
+        F = arc["F"][feas]
+        nd = ~np.array([np.any(np.all(F <= f, axis=1) & np.any(F < f, axis=1)) for f in F])
+        assert np.array_equal(best["F"], F[nd][best_compromise(F[nd])])
+
+
+class FailingProblem(TwoGroupProblem):
+    """Designs with x1 > 0.8 fail (NaN objectives)."""
+
+    def _evaluate(self, X, out, *args, **kwargs):
+        super()._evaluate(X, out)
+        out["F"][X[:, 0] > 0.8] = np.nan
+
+
+def test_failed_designs_stay_out_of_the_training_data():
+    alg = small(MGSAEAIPC)
+    res = run(alg, FailingProblem(), budget=40)
+    assert res.archive.failed.any()
+    assert np.all(alg._pop.X[:, 0] <= 0.8)
+    assert np.all(np.isfinite(alg._pop.F))
+
+
+class AlwaysFails(TwoGroupProblem):
+    def _evaluate(self, X, out, *args, **kwargs):
+        super()._evaluate(X, out)
+        out["F"][:] = np.nan
+
+
+def test_a_problem_that_always_fails_ends_with_a_clear_error():
+    with pytest.raises(AlgorithmStateError, match="mgsaea: only 0 successful evaluation"):
+        run(small(MGSAEA), AlwaysFails(), budget=40)
+
+
+class Unconstrained(ExpensiveProblem):
+    def __init__(self) -> None:
+        super().__init__(n_var=3, n_obj=2, n_ieq_constr=0, name="zdt_like")
+
+    def _evaluate(self, X, out, *args, **kwargs):
+        out["F"] = np.column_stack([X[:, 0], 1 - X[:, 0] + X[:, 1:].sum(axis=1)])
+
+
+@pytest.mark.parametrize("cls", [MGSAEA, MGSAEAIPC, MGSAEAStar])
+def test_unconstrained_problem_runs_every_variant(cls):
+    alg = small(cls, n_init=12, gap=1, threshold=1e9)
+    res = run(alg, Unconstrained(), budget=27)
+    assert len(res.archive) == 27 and alg.stage == 2
+    assert alg.info()["granularity"] == "objectives" and alg.info()["models"] == 2
+
+
+@pytest.mark.parametrize("name", ["mgsaea", "mgsaea_ipc", "mgsaea_star"])
+def test_yaml_matches_the_constructor(name):
+    node = OmegaConf.load(REPO / "conf" / "algorithm" / f"{name}.yaml")
+    cls = check_node("algorithm", node, name)
+    kwargs = {k: v for k, v in OmegaConf.to_container(node).items() if not k.startswith("_")}
+    alg = cls(**kwargs, surrogate=RBFDouble)
+    assert alg.name == name
