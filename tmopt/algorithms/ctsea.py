@@ -1,0 +1,311 @@
+"""C-TSEA: a simple two-stage evolutionary algorithm for constrained multi-objective problems.
+
+Tags: constrained, multi-objective, not surrogate-assisted (every offspring is evaluated
+for real; a Table 3 baseline of the seed paper).
+
+Implements
+    F. Ming, W. Gong, H. Zhen, S. Li, L. Wang, Z. Liao, "A simple two-stage evolutionary
+    algorithm for constrained multi-objective optimization", Knowledge-Based Systems 228:
+    107263, 2021 (reference code: PlatEMO ``Algorithms/Multi-objective optimization/C-TSEA``).
+
+Parameters (constructor arguments, default, meaning):
+    pop_size (100): population and archive size N; one generation evaluates N offspring.
+    stage_ratio (0.5): share of the budget spent in stage one.
+    crossover_eta (20), mutation_eta (20): SBX (probability 1) and polynomial mutation
+        (1/n_var per variable), PlatEMO's ``OperatorGA`` defaults.
+    normalise (True): SPEA2 density and truncation on min-max normalised objectives
+        (False = PlatEMO's raw distances); see tmopt.algorithms.selection.
+
+Algorithm:
+    Stage one (the first ``stage_ratio`` of the budget) ignores the constraints and drives
+    the population towards the unconstrained front with AR-MOEA (Tian et al., IEEE TEVC
+    22(4), 2018: IGD-NS based mating and environmental selection with adaptive reference
+    points), while an archive of size N collects the feasible designs (filled up with the
+    least-violating ones, cut back by constrained SPEA2). Stage two swaps archive and
+    population once and evolves the population with SPEA2 under constrained dominance
+    (binary tournament on its fitness, SBX + PM, SPEA2 environmental selection).
+
+Quirks of the reference fixed here (docs/algorithms-mgsaea.md, "C-TSEA"):
+    * ``MatingSelection1`` computes the IGD-NS fitness and then overwrites every entry
+      with -inf (AR-MOEA's line that copies it back was dropped), so stage one mates at
+      random; here the IGD-NS fitness drives the tournament, as in AR-MOEA.
+    * ``UpdateArchive`` re-appends the feasible members of the current population every
+      generation, so the archive fills with copies; here only designs not yet in the
+      archive are added.
+    * The archive starts with the feasible initial designs only and may be empty when
+      stage two begins (then the swapped population is empty); here it is filled to N
+      with the least-violating initial designs, as every later archive update does.
+    * A collapsed objective range sets the upper bound to 1 (meaningless when the ideal
+      value exceeds 1); here it becomes ideal + 1.
+    * AR-MOEA's ``UniformPoint`` adds an inner layer for many objectives; here one
+      Das-Dennis layer (pymoo) with at most N points is used.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pymoo.core.population import Population
+from pymoo.operators.crossover.sbx import SBX
+from pymoo.operators.mutation.pm import PM
+from pymoo.operators.sampling.rnd import FloatRandomSampling
+from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
+from pymoo.util.ref_dirs import get_reference_directions
+from scipy.spatial.distance import cdist
+
+from tmopt.algorithms.base import Algorithm, AlgorithmConfigError
+from tmopt.algorithms.selection import (
+    environmental_selection,
+    spea2_fitness,
+    total_violation,
+    tournament,
+)
+from tmopt.problems.evaluator import EvaluatedBatch
+
+
+# ---- AR-MOEA parts (no library offers them) --------------------------------------------------
+def uniform_points(n: int, m: int) -> np.ndarray:
+    """Das-Dennis weights on the unit simplex: the most partitions with at most ``n`` points."""
+    if m == 1:
+        return np.ones((1, 1))
+    h = 1
+    while _n_simplex_points(h + 1, m) <= n:
+        h += 1
+    return get_reference_directions("das-dennis", m, n_partitions=h)
+
+
+def _n_simplex_points(h: int, m: int) -> int:
+    from math import comb
+
+    return comb(h + m - 1, m - 1)
+
+
+def _cosine_similarity(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    return np.nan_to_num(1.0 - cdist(A, B, metric="cosine"), nan=0.0)
+
+
+def adjusted_distance(P: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """Distance of each (translated) solution to each reference point moved onto the front.
+
+    AR-MOEA: every reference point is scaled along its direction to the projection length
+    of the solution nearest to that direction (smallest perpendicular distance).
+    """
+    P = np.maximum(P, 1e-6)
+    R = np.maximum(R, 1e-6)
+    cos = np.clip(_cosine_similarity(P, R), -1.0, 1.0)
+    norm_p = np.linalg.norm(P, axis=1)[:, None]
+    d1 = norm_p * cos
+    d2 = norm_p * np.sqrt(1.0 - cos**2)
+    nearest = np.argmin(d2, axis=0)
+    length = d1[nearest, np.arange(len(R))] / np.linalg.norm(R, axis=1)
+    return cdist(P, R * length[:, None])
+
+
+def _grow_by_cosine(sim: np.ndarray, chosen: np.ndarray, target: int) -> np.ndarray:
+    """Add, one at a time, the candidate least similar to everything chosen so far."""
+    chosen = chosen.copy()
+    closest = sim[:, chosen].max(axis=1) if chosen.any() else np.full(len(sim), -np.inf)
+    while chosen.sum() < target:
+        cand = np.flatnonzero(~chosen)
+        pick = cand[np.argmin(closest[cand])]
+        chosen[pick] = True
+        closest = np.maximum(closest, sim[:, pick])
+    return chosen
+
+
+def update_ref_points(archive: np.ndarray, W: np.ndarray, bounds: np.ndarray | None):
+    """AR-MOEA's reference-point adaptation; returns ``(archive, ref_points, bounds)``.
+
+    ``bounds`` holds the ideal point (row 0) and the upper bound of the normalisation
+    (row 1). The archive keeps the non-dominated objective vectors that contribute to some
+    weight vector plus the most dissimilar others (at most 3|W|); the reference points are
+    the valid weight vectors plus the most dissimilar archive members (|W| in all).
+    """
+    front = NonDominatedSorting().do(archive, only_non_dominated_front=True)
+    A = np.unique(archive[front], axis=0)
+    if bounds is not None:
+        bounds = bounds.copy()
+        bounds[0] = np.minimum(bounds[0], A.min(axis=0))
+    else:
+        bounds = np.vstack([A.min(axis=0), A.max(axis=0)])
+    if len(A) <= 1:
+        return A, W, bounds
+    tA = A - bounds[0]
+    Ws = W * (bounds[1] - bounds[0])
+    dist = adjusted_distance(tA, Ws)
+    contributing = np.unique(np.argmin(dist, axis=0))
+    valid_w = np.unique(np.argmin(dist, axis=1)[contributing])
+    keep = np.isin(np.arange(len(A)), contributing)
+    keep = _grow_by_cosine(_cosine_similarity(tA, tA), keep, min(3 * len(W), len(A)))
+    A, tA = A[keep], tA[keep]
+    ref = np.vstack([Ws[valid_w], tA])
+    chosen = np.arange(len(ref)) < len(valid_w)
+    chosen = _grow_by_cosine(_cosine_similarity(ref, ref), chosen, min(len(W), len(ref)))
+    return A, ref[chosen], bounds
+
+
+def removal_metric(dist: np.ndarray) -> np.ndarray:
+    """IGD-NS of the set after removing each solution (larger = the solution matters more).
+
+    ``dist`` is (solutions, reference points). IGD-NS = sum over reference points of the
+    distance to the nearest solution + sum over non-contributing solutions (nearest to no
+    reference point) of their distance to the nearest reference point.
+    """
+    n, nr = dist.shape
+    conv = dist.min(axis=1)
+    order = np.argsort(dist, axis=0, kind="stable")
+    r1 = order[0]
+    d1 = dist[r1, np.arange(nr)]
+    contributing = np.zeros(n, dtype=bool)
+    contributing[r1] = True
+    total = d1.sum() + conv[~contributing].sum()
+    metric = total - conv
+    if n < 2:
+        return metric
+    r2 = order[1]
+    d2 = dist[r2, np.arange(nr)]
+    gain = np.bincount(r1, weights=d2 - d1, minlength=n)
+    # the second-nearest solutions that start contributing, each counted once per owner
+    pairs = np.unique(np.column_stack([r1, r2])[~contributing[r2]], axis=0)
+    newly = np.bincount(pairs[:, 0], weights=conv[pairs[:, 1]], minlength=n) \
+        if len(pairs) else np.zeros(n)
+    metric[contributing] = (total + gain - newly)[contributing]
+    return metric
+
+
+def last_front_selection(dist: np.ndarray, k: int) -> np.ndarray:
+    """Mask of the ``k`` solutions kept by deleting the least IGD-NS contributor repeatedly."""
+    remain = np.ones(len(dist), dtype=bool)
+    while remain.sum() > k:
+        idx = np.flatnonzero(remain)
+        remain[idx[np.argmin(removal_metric(dist[idx]))]] = False
+    return remain
+
+
+def armoea_selection(F: np.ndarray, ref: np.ndarray, bounds: np.ndarray, n: int):
+    """AR-MOEA's environmental selection on objectives only; returns ``(indices, bounds)``."""
+    fronts = NonDominatedSorting().do(F, n_stop_if_ranked=n)
+    keep = np.concatenate(fronts[:-1]).astype(int) if len(fronts) > 1 else np.zeros(0, int)
+    last = np.asarray(fronts[-1], dtype=int)
+    if len(keep) + len(last) > n:
+        dist = adjusted_distance(F[last] - bounds[0], ref)
+        last = last[last_front_selection(dist, n - len(keep))]
+    idx = np.sort(np.concatenate([keep, last]))
+    bounds = bounds.copy()
+    bounds[1] = F[idx].max(axis=0)
+    flat = bounds[1] - bounds[0] < 1e-6
+    bounds[1, flat] = bounds[0, flat] + 1.0
+    return idx, bounds
+
+
+# ---- the algorithm ----------------------------------------------------------------------------
+class CTSEA(Algorithm):
+    """C-TSEA (see the module docstring for parameters and the algorithm)."""
+
+    name = "ctsea"
+
+    def __init__(self, pop_size: int = 100, stage_ratio: float = 0.5,
+                 crossover_eta: float = 20.0, mutation_eta: float = 20.0,
+                 normalise: bool = True) -> None:
+        super().__init__(pop_size)
+        if isinstance(stage_ratio, bool) or not isinstance(stage_ratio, (int, float)) \
+                or not 0.0 <= stage_ratio <= 1.0:
+            raise AlgorithmConfigError(f"algorithm {self.name}: stage_ratio must be in "
+                                       f"[0, 1], got {stage_ratio!r}")
+        for label, eta in (("crossover_eta", crossover_eta), ("mutation_eta", mutation_eta)):
+            if isinstance(eta, bool) or not isinstance(eta, (int, float)) or not eta > 0:
+                raise AlgorithmConfigError(f"algorithm {self.name}: {label} must be > 0, "
+                                           f"got {eta!r}")
+        self.stage_ratio = float(stage_ratio)
+        self.crossover = SBX(prob=1.0, eta=float(crossover_eta))
+        self.mutation = PM(prob=1.0, eta=float(mutation_eta))
+        self.normalise = bool(normalise)
+
+    def _setup(self) -> None:
+        self.W = uniform_points(self.pop_size, self.problem.n_obj)
+        self.stage = 1
+        self.pop: dict | None = None
+        self.archive: dict | None = None
+        self._pending_stage = 1
+
+    def info(self) -> dict:
+        return {"stage": self.stage}
+
+    # ---- ask ------------------------------------------------------------------------------
+    def _infill(self) -> np.ndarray:
+        if self.pop is None:
+            return FloatRandomSampling().do(self.problem, self.pop_size,
+                                            random_state=self.rng).get("X")
+        if self.stage == 1 and self.n_evals >= self.stage_ratio * self.budget:
+            self.pop, self.archive = self.archive, self.pop  # swap once
+            self.stage = 2
+        self._pending_stage = self.stage
+        mates = self._mating_stage_one() if self.stage == 1 else self._mating_stage_two()
+        return self._variation(self.pop["X"][mates])
+
+    def _mating_stage_one(self) -> np.ndarray:
+        dist = adjusted_distance(self.pop["F"] - self.bounds[0], self.ref)
+        return tournament(-removal_metric(dist), self.pop_size, self.rng)
+
+    def _mating_stage_two(self) -> np.ndarray:
+        fit = spea2_fitness(self.pop["F"], total_violation(self.pop["G"]),
+                            normalise=self.normalise)
+        return tournament(fit, self.pop_size, self.rng)
+
+    def _variation(self, parents: np.ndarray) -> np.ndarray:
+        n_pairs = max(len(parents) // 2, 1)
+        pairs = np.arange(2 * n_pairs).reshape(2, n_pairs).T  # PlatEMO: first half x second
+        off = self.crossover.do(self.problem, Population.new("X", parents), parents=pairs,
+                                random_state=self.rng)
+        return self.mutation.do(self.problem, off, random_state=self.rng).get("X")
+
+    # ---- tell -----------------------------------------------------------------------------
+    def _advance(self, batch: EvaluatedBatch) -> None:
+        new = {"X": batch.X, "F": batch.F, "G": batch.G}
+        if self.pop is None:
+            self.pop = new
+            self.ref_archive, self.ref, self.bounds = update_ref_points(new["F"], self.W, None)
+            self.archive = self._update_archive(None, new)
+        elif self._pending_stage == 1:
+            both = _join(self.pop, new)
+            self.ref_archive, self.ref, self.bounds = update_ref_points(
+                np.vstack([self.ref_archive, new["F"]]), self.W, self.bounds)
+            self.archive = self._update_archive(self.archive, both)
+            idx, self.bounds = armoea_selection(both["F"], self.ref, self.bounds, self.pop_size)
+            self.pop = _take(both, idx)
+        else:
+            both = _join(self.pop, new)
+            fit = spea2_fitness(both["F"], total_violation(both["G"]), normalise=self.normalise)
+            idx = environmental_selection(fit, both["F"], self.pop_size, normalise=self.normalise)
+            self.pop = _take(both, idx[np.argsort(fit[idx], kind="stable")])
+
+    def _update_archive(self, archive: dict | None, pop: dict) -> dict:
+        """Feasible designs join (no copies); fill to N by violation or cut by CDP-SPEA2."""
+        cv = total_violation(pop["G"])
+        fresh = cv <= 0.0
+        if archive is not None:
+            fresh &= ~_rows_in(pop["X"], archive["X"])
+        arc = _take(pop, np.flatnonzero(fresh)) if archive is None \
+            else _join(archive, _take(pop, np.flatnonzero(fresh)))
+        n = self.pop_size
+        if len(arc["X"]) < n:
+            rest = np.flatnonzero(~_rows_in(pop["X"], arc["X"]))
+            rest = rest[np.argsort(cv[rest], kind="stable")][: n - len(arc["X"])]
+            arc = _join(arc, _take(pop, rest))
+        elif len(arc["X"]) > n:
+            fit = spea2_fitness(arc["F"], total_violation(arc["G"]), normalise=self.normalise)
+            arc = _take(arc, environmental_selection(fit, arc["F"], n, normalise=self.normalise))
+        return arc
+
+
+def _take(s: dict, idx) -> dict:
+    return {k: v[idx] for k, v in s.items()}
+
+
+def _join(a: dict, b: dict) -> dict:
+    return {k: np.vstack([a[k], b[k]]) for k in a}
+
+
+def _rows_in(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    if len(A) == 0 or len(B) == 0:
+        return np.zeros(len(A), dtype=bool)
+    return (A[:, None, :] == B[None, :, :]).all(axis=2).any(axis=1)
