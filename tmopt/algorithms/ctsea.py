@@ -44,9 +44,6 @@ Quirks of the reference fixed here (docs/algorithms-mgsaea.md, "C-TSEA"):
 from __future__ import annotations
 
 import numpy as np
-from pymoo.core.population import Population
-from pymoo.operators.crossover.sbx import SBX
-from pymoo.operators.mutation.pm import PM
 from pymoo.operators.sampling.rnd import FloatRandomSampling
 from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
 from pymoo.util.ref_dirs import get_reference_directions
@@ -55,6 +52,7 @@ from scipy.spatial.distance import cdist
 from tmopt.algorithms.base import Algorithm, AlgorithmConfigError
 from tmopt.algorithms.selection import (
     environmental_selection,
+    ga_offspring,
     spea2_fitness,
     total_violation,
     tournament,
@@ -216,8 +214,8 @@ class CTSEA(Algorithm):
                 raise AlgorithmConfigError(f"algorithm {self.name}: {label} must be > 0, "
                                            f"got {eta!r}")
         self.stage_ratio = float(stage_ratio)
-        self.crossover = SBX(prob=1.0, eta=float(crossover_eta))
-        self.mutation = PM(prob=1.0, eta=float(mutation_eta))
+        self.crossover_eta = float(crossover_eta)
+        self.mutation_eta = float(mutation_eta)
         self.normalise = bool(normalise)
 
     def _setup(self) -> None:
@@ -254,9 +252,8 @@ class CTSEA(Algorithm):
     def _variation(self, parents: np.ndarray) -> np.ndarray:
         n_pairs = max(len(parents) // 2, 1)
         pairs = np.arange(2 * n_pairs).reshape(2, n_pairs).T  # PlatEMO: first half x second
-        off = self.crossover.do(self.problem, Population.new("X", parents), parents=pairs,
-                                random_state=self.rng)
-        return self.mutation.do(self.problem, off, random_state=self.rng).get("X")
+        return ga_offspring(parents, pairs, self.problem.xl, self.problem.xu, self.rng,
+                            self.crossover_eta, self.mutation_eta)
 
     # ---- tell -----------------------------------------------------------------------------
     def _advance(self, batch: EvaluatedBatch) -> None:

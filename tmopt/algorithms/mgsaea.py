@@ -71,9 +71,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from pymoo.core.population import Population
-from pymoo.operators.crossover.sbx import SBX
-from pymoo.operators.mutation.pm import PM
 from pymoo.operators.sampling.lhs import LHS
 from scipy.spatial.distance import cdist
 
@@ -82,6 +79,7 @@ from tmopt.algorithms.selection import (
     change_rate,
     choose_granularity,
     environmental_selection,
+    ga_offspring,
     spea2_fitness,
     total_violation,
     tournament,
@@ -208,8 +206,8 @@ class MGSAEA(Algorithm):
         self.sigma = self._positive("sigma", sigma)
         self.n_init = None if n_init is None else self._int("n_init", n_init, 2)
         self.max_iter = None if max_iter is None else self._int("max_iter", max_iter, 0)
-        self.crossover = SBX(prob=1.0, eta=self._positive("crossover_eta", crossover_eta))
-        self.mutation = PM(prob=1.0, eta=self._positive("mutation_eta", mutation_eta))
+        self.crossover_eta = self._positive("crossover_eta", crossover_eta)
+        self.mutation_eta = self._positive("mutation_eta", mutation_eta)
         self.normalise = bool(normalise)
         if surrogate is not None and not callable(surrogate):
             raise AlgorithmConfigError(f"algorithm {self.name}: surrogate must be a "
@@ -361,10 +359,8 @@ class MGSAEA(Algorithm):
         return X, P
 
     def _variation(self, X: np.ndarray, mates: np.ndarray) -> np.ndarray:
-        off = self.crossover.do(self.problem, Population.new("X", X), parents=mates,
-                                random_state=self.rng)
-        off = self.mutation.do(self.problem, off, random_state=self.rng)
-        return np.clip(off.get("X"), self.problem.xl, self.problem.xu)
+        return ga_offspring(X, mates, self.problem.xl, self.problem.xu, self.rng,
+                            self.crossover_eta, self.mutation_eta)
 
     def _choose_infill(self, plan: ModelPlan, X: np.ndarray, P: np.ndarray) -> np.ndarray:
         """The ``mu`` designs to evaluate: SPEA2 selection among the not-yet-evaluated ones.

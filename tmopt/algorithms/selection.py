@@ -22,6 +22,8 @@ constraint violation ``>= 0`` (0 = feasible).
   constraint satisfaction (Zhang et al., TNNLS 35(3), 2024, Sec. III; seed paper Sec. 3.2.2).
 * :func:`tournament` — K-ary tournament on a fitness (lower is better), as PlatEMO's
   ``TournamentSelection``.
+* :func:`ga_offspring` — PlatEMO's ``OperatorGA`` (SBX + polynomial mutation) on arrays,
+  with pymoo's operator kernels.
 
 Deviation from PlatEMO (documented in docs/algorithms-mgsaea.md): distances for the
 density D(i) and for truncation are computed on objectives min-max normalised over the
@@ -32,6 +34,8 @@ magnitude (seconds vs s^-2); ``normalise=False`` gives PlatEMO's raw distances.
 from __future__ import annotations
 
 import numpy as np
+from pymoo.operators.crossover.sbx import cross_sbx
+from pymoo.operators.mutation.pm import mut_pm
 from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
 from scipy.spatial.distance import pdist, squareform
 
@@ -78,8 +82,12 @@ def dominance_matrix(F, cv=None) -> np.ndarray:
     smaller violation, or the same violation and Pareto-dominates j.
     """
     F = _as_matrix("F", F)
-    better = (F[:, None, :] < F[None, :, :]).any(axis=2)
-    worse = (F[:, None, :] > F[None, :, :]).any(axis=2)
+    n = len(F)
+    better = np.zeros((n, n), dtype=bool)
+    worse = np.zeros((n, n), dtype=bool)
+    for col in F.T:  # one (n, n) comparison per objective: no (n, n, m) temporaries
+        better |= col[:, None] < col[None, :]
+        worse |= col[:, None] > col[None, :]
     dom = better & ~worse
     if cv is not None:
         c = _as_cv(cv, len(F))
@@ -264,3 +272,33 @@ def unique_rows(A, decimals: int | None = None) -> np.ndarray:
     key = A if decimals is None else np.round(A, decimals)
     _, first = np.unique(key, axis=0, return_index=True)
     return np.sort(first)
+
+
+def ga_offspring(X, mates, xl, xu, rng: np.random.Generator, crossover_eta: float = 20.0,
+                 mutation_eta: float = 20.0) -> np.ndarray:
+    """Two children per mating pair: SBX then polynomial mutation (PlatEMO's OperatorGA).
+
+    SBX with probability 1 per pair, each variable crossed with probability 0.5 and the
+    children swapped per variable with probability 0.5; polynomial mutation of each
+    variable with probability 1/n_var. pymoo's array kernels (``cross_sbx``, ``mut_pm``)
+    are called directly: its operator objects wrap every child in an ``Individual``,
+    which cost more than the whole surrogate generation at 300 children.
+
+    Args:
+        X: Designs ``(n, n_var)``.
+        mates: Pairs of row indices into ``X``, shape ``(n_pairs, 2)``.
+        xl, xu: Bounds ``(n_var,)``.
+    Returns:
+        Children ``(2 * n_pairs, n_var)``: first children of all pairs, then second ones.
+    """
+    X = np.asarray(X, dtype=float)
+    mates = np.asarray(mates, dtype=int)
+    n_pairs, n_var = len(mates), X.shape[1]
+    parents = np.stack([X[mates[:, 0]], X[mates[:, 1]]])
+    half = np.full((n_pairs, 1), 0.5)
+    Q = cross_sbx(parents, xl, xu, np.full((n_pairs, 1), float(crossover_eta)), half,
+                  half.copy(), random_state=rng)
+    off = Q.reshape(2 * n_pairs, n_var)
+    return mut_pm(off, xl, xu, np.full(len(off), float(mutation_eta)),
+                  np.full(len(off), min(0.5, 1.0 / n_var)), at_least_once=False,
+                  random_state=rng)
