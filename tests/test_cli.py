@@ -64,7 +64,7 @@ def test_run_writes_every_output_file_and_a_rerun_skips(tmp_path):
     (["budget=50"], "budget=50 is smaller than its initial sample"),
     (["algorithm=nsga2,nope"], "unknown algorithm 'nope'"),
     (["seed=0,1", "algorithm.pop_size=10,1"], "pop_size must be an integer >= 2"),
-    (["problem=mw1", "problem.name=not_a_problem"], "problem not_a_problem"),
+    (["problem=mw1", "problem.name=not_a_problem"], "'not_a_problem' is not a suite problem"),
 ])
 def test_preflight_names_the_bad_value(args, expected):
     with pytest.raises(ConfigError) as err:
