@@ -67,8 +67,8 @@ def generic_front(name: str, n_obj: int, n_points: int) -> np.ndarray:
     """Front by the generic construction: lowest feasible point along each direction."""
     base = 0.5 * simplex_points(n_obj, n_points) if name.endswith("dtlz1") \
         else sphere_points(n_obj, n_points)
-    feasible = lambda F: np.all(constraints(name, F) <= 0.0, axis=1)  # noqa: E731
-    return nondominated(lowest_feasible(base, feasible, s_max=4.0, n_grid=800))
+    violation = lambda F: constraints(name, F).max(axis=1)  # noqa: E731
+    return nondominated(lowest_feasible(base, violation, s_max=4.0, n_grid=800)[0])
 
 
 def front(name: str, n_obj: int = 3, n_points: int = 2000) -> np.ndarray:

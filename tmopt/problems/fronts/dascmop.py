@@ -24,6 +24,7 @@ import numpy as np
 
 from tmopt.problems.fronts.sampling import (
     FrontSample,
+    even_along,
     lowest_feasible,
     lowest_feasible_curve,
     nondominated_index,
@@ -106,7 +107,7 @@ def front_sample(k: int, difficulty=8, n_points: int = 2000) -> FrontSample:
     eta, zeta, gamma = triplet(difficulty)
     b = 2 * eta - 1
     g_lo, g_hi = g_range(zeta)
-    feasible = lambda F: np.all(type3(F, gamma) <= 0.0, axis=1)  # noqa: E731
+    violation = lambda F: type3(F, gamma).max(axis=1)  # noqa: E731
     span, shift = min(g_hi - g_lo, 3.0), np.ones(2 if k <= 6 else 3)
     if k <= 6:
         def curve(t):  # type-I infeasible positions become NaN rows, i.e. infeasible
@@ -114,9 +115,10 @@ def front_sample(k: int, difficulty=8, n_points: int = 2000) -> FrontSample:
             base[np.sin(20 * np.pi * t) < b] = np.nan
             return base
 
-        # DAS-CMOP3/6 fronts are short pieces of a wavy curve: sample them ten times denser.
-        t0 = np.linspace(0.0, 1.0, n_points * (10 if k % 3 == 0 else 1))
-        F, t, s = lowest_feasible_curve(curve, t0, feasible, span, shift, n_grid=600)
+        # Twice the points wanted, evenly along the curve, thinned evenly along the front;
+        # DAS-CMOP3/6 fronts are short pieces of a wavy curve: ten times.
+        t0 = even_along(lambda u: _base2(k, u), 0.0, 1.0, n_points * (10 if k % 3 == 0 else 2))
+        F, t, s = lowest_feasible_curve(curve, t0, violation, span, shift, n_grid=600)
         sample = FrontSample(F, t[:, None], g_lo + s)
         nd = nondominated_index(F)
         sample = sample.take(nd[np.argsort(F[nd, 0], kind="stable")])
@@ -124,7 +126,7 @@ def front_sample(k: int, difficulty=8, n_points: int = 2000) -> FrontSample:
     side = max(int(np.sqrt(n_points)), 2)
     x1, x2 = np.meshgrid(_type1_values(side, b), _type1_values(side, b, use_cos=True))
     pos = np.column_stack([x1.ravel(), x2.ravel()])
-    F, index, s = lowest_feasible(_base3(k, pos[:, 0], pos[:, 1]) + g_lo, feasible, span,
+    F, index, s = lowest_feasible(_base3(k, pos[:, 0], pos[:, 1]) + g_lo, violation, span,
                                   shift=shift, n_grid=600)
     sample = FrontSample(F, pos[index], g_lo + s)
     return sample.take(nondominated_index(F))

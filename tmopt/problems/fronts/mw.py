@@ -21,6 +21,7 @@ import numpy as np
 
 from tmopt.problems.fronts.sampling import (
     FrontSample,
+    even_along,
     lowest_feasible_curve,
     nondominated,
     nondominated_index,
@@ -144,8 +145,9 @@ def constraints(k: int, F: np.ndarray) -> np.ndarray:
         return CONSTRAINTS[k](np.atleast_2d(np.asarray(F, dtype=float)))
 
 
-def _feasible(k: int):
-    return lambda F: np.all(constraints(k, F) <= 0.0, axis=1)
+def violation(k: int):
+    """(n, M) objective vectors -> (n,) largest constraint value of MW``k``."""
+    return lambda F: constraints(k, F).max(axis=1)
 
 
 # ---- the unconstrained fronts B(t) (g = 1) of the bi-objective problems -----------------
@@ -192,13 +194,14 @@ _SPECIAL_T = {
 
 def _curve_front(k: int, n_points: int) -> FrontSample:
     (lo, hi), curve, shift, s_max = _CURVES[k]
-    # MW5's front is short arcs around 16 points: sample ten times denser, then thin.
-    t = np.linspace(lo, hi, n_points * (10 if k == 5 else 1))
+    base = lambda u: np.column_stack(curve(u))  # noqa: E731
+    # Twice the points wanted, evenly along the curve, then thinned evenly along the front;
+    # MW5's front is short arcs around 16 points: four times.
+    t = even_along(base, lo, hi, n_points * (4 if k == 5 else 2))
     if k in _SPECIAL_T:
         t = np.union1d(t, _SPECIAL_T[k]())
     shift = None if shift is None else np.asarray(shift, dtype=float)
-    F, t, s = lowest_feasible_curve(lambda u: np.column_stack(curve(u)), t, _feasible(k),
-                                    s_max, shift, n_grid=1000)
+    F, t, s = lowest_feasible_curve(base, t, violation(k), s_max, shift, n_grid=1000)
     # MW1-3: f2 = g - c f1 with g = 1 + s; MW4-14: F = g B(t) with g = s.
     sample = FrontSample(F, t[:, None], s + 1.0 if shift is not None else s)
     nd = nondominated_index(F)
@@ -220,7 +223,7 @@ def mw8_front(n_obj: int, n_points: int) -> FrontSample:
     either: the gaps stay empty.
     """
     U = sphere_points(n_obj, n_points)
-    U = U[_feasible(8)(U)]
+    U = U[violation(8)(U) <= 0.0]
     return FrontSample(U, U[:, :-1], np.ones(len(U)))
 
 
