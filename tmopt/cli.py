@@ -188,8 +188,12 @@ def summary_table(metrics: dict, outdir: Path | None = None) -> str:
             f"| final non-dominated set | {metrics['pareto_size']} designs |"]
     for name, v in zip(prob["objectives"], metrics.get("best_objectives") or []):
         rows.append(f"| best feasible {name} | {_fmt(v)} |")
+    label = "chosen (Eq. 21)" if chosen.get("feasible") else "least-violating (none feasible)"
     for name, v in (chosen.get("F") or {}).items():
-        rows.append(f"| chosen (Eq. 21) {name} | {_fmt(v)} |")
+        rows.append(f"| {label} {name} | {_fmt(v)} |")
+    for key, v in (metrics.get("identification") or {}).items():
+        if isinstance(v, float):
+            rows.append(f"| chosen: {key} | {_fmt(v)} |")
     for key in ("igd", "igd_plus", "hv"):
         if metrics.get(key) is not None:
             rows.append(f"| {key} | {_fmt(metrics[key])} |")

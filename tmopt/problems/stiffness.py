@@ -1,0 +1,254 @@
+"""Motion-state optimisation for test-mass stiffness identification (paper Sec. 3.2.1).
+
+Decision variables are the multi-sine reference motions of Eq. 17, per test mass and per
+frequency ``i = 1..k``: amplitude ``A_i`` [m], angular frequency ``w_i`` [rad/s] and phase
+``theta_i`` [rad] (the bias ``B_i = -A_i sin theta_i`` follows from them). The vector is
+laid out per test mass as ``[A_1..A_k, w_1..w_k, theta_1..theta_k]``.
+
+Schemes (paper Table 2):
+
+====== ==================== =================== ==================
+scheme decision variables   objectives          dimensions
+====== ==================== =================== ==================
+A      TM1 (3k)             TM1 (time, RMSE)    3k & 2
+B      TM1 + TM2 (6k)       TM1 (time, RMSE)    6k & 2
+C      TM1 + TM2 (6k)       TM1 + TM2           6k & 4
+====== ==================== =================== ==================
+
+In scheme A TM2 is held at its nominal position (zero reference); its constraints are
+then satisfied by construction and are not part of the problem (paper Sec. 4.4).
+
+Objectives: convergence time (Eq. 18) and convergence accuracy (Eq. 19) of the
+identified sensitive-axis stiffness, computed by the batched simulator (:mod:`tmopt.physics`).
+Constraints: Eq. 20 per test mass, normalised by their limits so both are O(1):
+``g1 = sum_i A_i w_i^2 / (alpha1 F_max) - 1`` and ``g2 = max_t |x_ref(t)| / (alpha2 D) - 1``.
+They form one constraint group per test mass; the group of the key test mass (TM1 by
+default: the one whose stiffness is identified) has priority 0 — the "key individual
+constraints" of MGSAEA-IPC. A design whose closed loop diverges is reported as failed
+with the simulator's reason (the evaluator then treats it as infeasible).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import replace
+
+import numpy as np
+
+from tmopt.metrics.identification import metric_m_at_threshold
+from tmopt.physics import objectives as phys_obj
+from tmopt.physics.excitation import MultiSine
+from tmopt.physics.simulator import SimulationConfig, SimulationResult, simulate
+from tmopt.problems.base import ConstraintGroup, ExpensiveProblem
+
+SCHEMES = {
+    # scheme: (test masses with decision variables, test masses with objectives)
+    "A": ((1,), (1,)),
+    "B": ((1, 2), (1,)),
+    "C": ((1, 2), (1, 2)),
+}
+#: Convergence thresholds for the stricter M of Table 3.
+STRICT_THRESHOLDS = (7e-11, 5e-11)
+
+
+class StiffnessProblem(ExpensiveProblem):
+    """Schemes A/B/C x ``n_freq`` frequencies of the stiffness-identification problem.
+
+    Args:
+        scheme: ``"A"``, ``"B"`` or ``"C"`` (paper Table 2).
+        n_freq: Frequencies k per test mass, 1..8.
+        amplitude_bounds: ``(low, high)`` of every ``A_i`` [m].
+        period_bounds: ``(shortest, longest)`` period [s]; ``w_i = 2 pi / period``.
+        phase_bounds: ``(low, high)`` of every ``theta_i`` [rad].
+        key_tm: Test mass whose constraints have priority 0 (1 or 2).
+        noise_seed: Noise realisation used for every evaluation (common random numbers,
+            so objectives are a deterministic function of the design).
+        epsilon: Convergence threshold of Eq. 18 [s^-2].
+        m_weights: Weights of Eq. 29 (time, accuracy).
+        duration, sample_rate, controller, f_max, alpha1, gap, alpha2: simulator settings
+            (Sec. 4.1, 4.4): run length [s], sampling [Hz], ``"frbf_pid"`` or ``"pid"``,
+            F_max [m s^-2], alpha1, electrode gap D [m], alpha2.
+        stiffness_1, stiffness_2: True (x, y) stiffness of TM1 and TM2 [s^-2] (Table 1).
+        chunk: Designs simulated per call (bounds memory; results do not depend on it).
+        name: Problem name.
+    """
+
+    def __init__(
+        self,
+        scheme: str = "B",
+        n_freq: int = 3,
+        amplitude_bounds: Sequence[float] = (1e-6, 2e-4),
+        period_bounds: Sequence[float] = (60.0, 1200.0),
+        phase_bounds: Sequence[float] = (0.0, 2 * math.pi),
+        key_tm: int = 1,
+        noise_seed: int = 0,
+        epsilon: float = 1e-10,
+        m_weights: Sequence[float] = (1 / 60, 1e10),
+        duration: float = 1200.0,
+        sample_rate: float = 10.0,
+        controller: str = "frbf_pid",
+        f_max: float = 1e-7,
+        alpha1: float = 0.5,
+        gap: float = 4e-3,
+        alpha2: float = 0.1,
+        stiffness_1: Sequence[float] = (1e-7, 1e-7),
+        stiffness_2: Sequence[float] = (1e-7, 1e-7),
+        chunk: int = 100,
+        name: str = "stiffness",
+    ) -> None:
+        if scheme not in SCHEMES:
+            raise ValueError(f"problem {name}: scheme must be one of {sorted(SCHEMES)}, "
+                             f"got {scheme!r}")
+        _check_int(name, "n_freq", n_freq, 1, 8)
+        _check_int(name, "key_tm", key_tm, 1, 2)
+        _check_int(name, "chunk", chunk, 1, 10_000)
+        _check_int(name, "noise_seed", noise_seed, 0, 2**63 - 1)
+        self.scheme, self.n_freq, self.key_tm = scheme, int(n_freq), int(key_tm)
+        self.noise_seed, self.chunk = int(noise_seed), int(chunk)
+        self.epsilon = _positive(name, "epsilon", epsilon)
+        self.m_weights = tuple(float(w) for w in m_weights)
+        self.config = SimulationConfig(
+            duration=duration, sample_rate=sample_rate, controller=controller, f_max=f_max,
+            alpha1=alpha1, gap=gap, alpha2=alpha2, record="estimates",
+            stiffness_1=tuple(float(v) for v in stiffness_1),
+            stiffness_2=tuple(float(v) for v in stiffness_2))
+        self.decision_tms, self.objective_tms = SCHEMES[scheme]
+        lo, hi = self._bounds(name, amplitude_bounds, period_bounds, phase_bounds)
+        groups, cnames = self._constraint_layout()
+        onames = [f"{q}_TM{tm}" for tm in self.objective_tms
+                  for q in ("convergence_time", "convergence_accuracy")]
+        super().__init__(n_var=len(lo), n_obj=len(onames), n_ieq_constr=len(cnames), xl=lo,
+                         xu=hi, name=name, constraint_groups=groups, objective_names=onames,
+                         constraint_names=cnames)
+
+    # ---- layout ------------------------------------------------------------------------
+    def _bounds(self, name, amplitude_bounds, period_bounds, phase_bounds):
+        a = _interval(name, "amplitude_bounds", amplitude_bounds, minimum=0.0)
+        p = _interval(name, "period_bounds", period_bounds, minimum=0.0)
+        ph = _interval(name, "phase_bounds", phase_bounds)
+        nyquist_period = 2.0 / self.config.sample_rate
+        if p[0] <= nyquist_period:
+            raise ValueError(f"problem {name}: period_bounds must start above the Nyquist "
+                             f"period {nyquist_period:g} s, got {p[0]!r}")
+        w = (2 * math.pi / p[1], 2 * math.pi / p[0])
+        k = self.n_freq
+        lo = np.concatenate([[a[0]] * k, [w[0]] * k, [ph[0]] * k] * len(self.decision_tms))
+        hi = np.concatenate([[a[1]] * k, [w[1]] * k, [ph[1]] * k] * len(self.decision_tms))
+        return lo, hi
+
+    def _constraint_layout(self) -> tuple[list[ConstraintGroup], list[str]]:
+        groups, names = [], []
+        for j, tm in enumerate(self.decision_tms):
+            names += [f"actuation_TM{tm}", f"displacement_TM{tm}"]
+            groups.append(ConstraintGroup(f"TM{tm}", (2 * j, 2 * j + 1),
+                                          priority=0 if tm == self.key_tm else 1))
+        return groups, names
+
+    def variable_names(self) -> list[str]:
+        k = range(1, self.n_freq + 1)
+        return [f"{q}{i}_TM{tm}" for tm in self.decision_tms for q in ("A", "w", "theta")
+                for i in k]
+
+    def references(self, X: np.ndarray) -> tuple[MultiSine, MultiSine]:
+        """Reference motions of TM1 and TM2 for designs ``X (n, n_var)``."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        k = self.n_freq
+        refs = {}
+        for j, tm in enumerate(self.decision_tms):
+            block = X[:, 3 * k * j: 3 * k * (j + 1)]
+            refs[tm] = MultiSine(block[:, :k], block[:, k:2 * k], block[:, 2 * k:])
+        if 2 not in refs:  # scheme A: TM2 held at nominal
+            refs[2] = MultiSine(np.zeros((len(X), 1)), np.zeros((len(X), 1)))
+        return refs[1], refs[2]
+
+    # ---- evaluation --------------------------------------------------------------------
+    def simulate_designs(self, X: np.ndarray, record: str = "estimates") -> SimulationResult:
+        """Closed-loop simulation of designs ``X`` with this problem's noise realisation."""
+        ref1, ref2 = self.references(X)
+        cfg = self.config if record == self.config.record else \
+            replace(self.config, record=record)
+        return simulate(ref1, ref2, cfg, seed=self.noise_seed)
+
+    def _evaluate(self, X, out, *args, **kwargs):
+        F, G, reason = [], [], []
+        for start in range(0, len(X), self.chunk):
+            f, g, r = self._evaluate_chunk(X[start:start + self.chunk])
+            F.append(f)
+            G.append(g)
+            reason += r
+        out["F"] = np.vstack(F)
+        out["G"] = np.vstack(G)
+        out["reason"] = np.array(reason, dtype=object)
+
+    def _evaluate_chunk(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
+        result = self.simulate_designs(X)
+        cols = []
+        for tm in self.objective_tms:
+            obj = phys_obj.evaluate(result, idx=tm - 1, eps=self.epsilon, weights=self.m_weights)
+            cols += [obj["convergence_time"], obj["convergence_accuracy"]]
+        reason = [r if d else "" for r, d in zip(result.reason, result.diverged)]
+        return np.stack(cols, axis=1), self.constraints(X), reason
+
+    def constraints(self, X: np.ndarray) -> np.ndarray:
+        """Eq. 20 per decision test mass, normalised: ``value / limit - 1`` (<= 0 feasible)."""
+        ref1, ref2 = self.references(X)
+        raw = phys_obj.eq20_constraints(ref1, ref2, self.config)  # (n, 4): TM1 g1 g2, TM2 g1 g2
+        cfg = self.config
+        limits = np.array([cfg.alpha1 * cfg.f_max, cfg.alpha2 * cfg.gap] * 2)
+        norm = raw / limits  # = value/limit - 1
+        cols = [c for tm in self.decision_tms for c in (2 * (tm - 1), 2 * (tm - 1) + 1)]
+        return norm[:, cols]
+
+    # ---- reporting ---------------------------------------------------------------------
+    def identification_report(self, x: np.ndarray) -> dict:
+        """Table 3 numbers of one design: times, accuracies, M at several thresholds."""
+        result = self.simulate_designs(np.atleast_2d(x))
+        report = {"diverged": bool(result.diverged[0]), "reason": result.reason[0] or None}
+        w1, w2 = self.m_weights
+        for tm in self.objective_tms:
+            idx = tm - 1
+            truth = float(self.config.theta_true[idx])
+            curve = result.theta_hat[0, :, idx]
+            tag = f"TM{tm}"
+            report[f"final_accuracy_{tag}"] = float(abs(curve[-1] - truth))
+            for eps in (self.epsilon, *STRICT_THRESHOLDS):
+                m = metric_m_at_threshold(curve, truth, eps, self.config.sample_rate, w1, w2)
+                suffix = "" if eps == self.epsilon else f"@{eps:g}"
+                report[f"convergence_time_{tag}{suffix}"] = m["convergence_time"]
+                report[f"convergence_accuracy_{tag}{suffix}"] = m["convergence_accuracy"]
+                report[f"M_{tag}{suffix}"] = m["M"]
+        return report
+
+    def extra_metrics(self, problem, data, pareto, best: int) -> dict:
+        """Runner hook: the chosen design's Table 3 numbers (re-simulated, not counted)."""
+        if best < 0:
+            return {}
+        return {"identification": self.identification_report(data.X[best]),
+                "scheme": self.scheme, "n_freq": self.n_freq,
+                "variable_names": self.variable_names()}
+
+
+def _check_int(problem: str, label: str, value, lo: int, hi: int) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
+            or not lo <= value <= hi:
+        raise ValueError(f"problem {problem}: {label} must be an integer in [{lo}, {hi}], "
+                         f"got {value!r}")
+
+
+def _positive(problem: str, label: str, value) -> float:
+    value = float(value)
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(f"problem {problem}: {label} must be a finite number > 0, "
+                         f"got {value!r}")
+    return value
+
+
+def _interval(problem: str, label: str, pair, minimum: float | None = None):
+    vals = [float(v) for v in pair]
+    if len(vals) != 2 or not all(math.isfinite(v) for v in vals) or vals[0] >= vals[1]:
+        raise ValueError(f"problem {problem}: {label} must be two finite numbers low < high, "
+                         f"got {list(pair)!r}")
+    if minimum is not None and vals[0] < minimum:
+        raise ValueError(f"problem {problem}: {label} must be >= {minimum}, got {vals}")
+    return vals
