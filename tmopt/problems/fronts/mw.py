@@ -233,16 +233,26 @@ def mw14_front(n_obj: int, n_points: int) -> FrontSample:
     ``f_M`` is a sum of one-dimensional terms, so a point is non-dominated exactly when
     every ``(f_j, h(f_j))`` is non-dominated on the curve ``(x, h(x))``; those ``x`` form
     two intervals (about [0, 0.731] and [1.331, 1.5], cf. PlatEMO), found here on a fine
-    grid. The constraint holds on the whole ``g = 1`` surface (tested).
+    grid and sampled evenly, ends included. The constraint holds on the whole ``g = 1``
+    surface (tested).
     """
     x = np.linspace(0.0, 1.5, 15001)
     h = 6 - np.exp(x) - 1.5 * np.sin(1.1 * np.pi * x ** 2)
     keep = h < np.concatenate([[np.inf], np.minimum.accumulate(h[:-1])])
-    per_axis = max(int(round(n_points ** (1.0 / (n_obj - 1)))), 2)
-    xs = x[keep][np.round(np.linspace(0, keep.sum() - 1, per_axis)).astype(int)]
+    per_axis = max(int(round(n_points ** (1.0 / (n_obj - 1)))), 4)
+    xs = _even_in_runs(x, keep, per_axis)
     grid = np.stack(np.meshgrid(*[xs] * (n_obj - 1), indexing="ij"), -1).reshape(-1, n_obj - 1)
     last = (6 - np.exp(grid) - 1.5 * np.sin(1.1 * np.pi * grid ** 2)).mean(1)
     return FrontSample(np.column_stack([grid, last]), grid, np.ones(len(grid)))
+
+
+def _even_in_runs(x: np.ndarray, keep: np.ndarray, n: int) -> np.ndarray:
+    """About n values spread over the runs of ``x[keep]`` in proportion to their lengths."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], keep.astype(int), [0]])))
+    runs = [(x[a], x[b - 1]) for a, b in zip(edges[::2], edges[1::2])]
+    total = sum(hi - lo for lo, hi in runs)
+    parts = [np.linspace(lo, hi, max(2, int(round(n * (hi - lo) / total)))) for lo, hi in runs]
+    return np.concatenate(parts)
 
 
 def front_sample(k: int, n_obj: int = 2, n_points: int = 2000) -> FrontSample:
