@@ -1,0 +1,194 @@
+"""GP surrogate: accuracy, exact fast prediction, warm start, determinism, fallbacks."""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pytest
+import torch
+from botorch.models import ModelListGP, SingleTaskGP
+from linear_operator.utils.errors import NotPSDError
+
+import tmopt.surrogates.gp as gp_module
+from tmopt.surrogates.base import SurrogateError
+from tmopt.surrogates.gp import GPSurrogate
+
+
+@pytest.fixture(scope="module")
+def fitted(smooth3):
+    """One fitted model per fit mode on the 3-output problem."""
+    X, Y, _ = smooth3
+    return {mode: GPSurrogate(fit_mode=mode, warm_start=False).fit(X, Y)
+            for mode in ("per_output", "batched", "model_list")}
+
+
+@pytest.mark.parametrize("name", ["rosenbrock", "ackley"])
+def test_r2_on_held_out_points(train_test, r2, name):
+    (X, Y), (Xt, Yt) = train_test[name]
+    model = GPSurrogate().fit(X, Y)
+    assert model.fit_info["stage"] == "mll"
+    assert r2(Yt, model.predict_mean(Xt))[0] >= 0.9
+
+
+@pytest.mark.parametrize("mode", ["per_output", "batched", "model_list"])
+def test_fast_predict_equals_botorch_posterior(fitted, smooth3, mode):
+    model = fitted[mode]
+    Xq = np.random.default_rng(1).uniform(-1.5, 2.5, size=(11, 4))
+    mean, std = model.predict(Xq)
+    assert mean.shape == std.shape == (11, 3) and mean.dtype == np.float64
+    with torch.no_grad():
+        post = model.model.posterior(torch.as_tensor(Xq), observation_noise=False)
+    np.testing.assert_allclose(mean, post.mean.numpy(), rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(std, post.variance.clamp_min(0).sqrt().numpy(),
+                               rtol=1e-6, atol=1e-8)
+    np.testing.assert_array_equal(model.predict_mean(Xq), mean)
+    expected = ModelListGP if mode == "model_list" else SingleTaskGP
+    assert isinstance(model.model, expected)
+
+
+def test_per_output_fit_equals_separate_fits(fitted, smooth3):
+    """Copying per-output optima into the batched model changes nothing but the layout."""
+    X, _, _ = smooth3
+    a, b = fitted["per_output"], fitted["model_list"]
+    assert a.fit_info["iterations"] == b.fit_info["iterations"]
+    for (ma, sa), (mb, sb) in [(a.predict(X + 0.1), b.predict(X + 0.1))]:
+        np.testing.assert_allclose(ma, mb, rtol=1e-7, atol=1e-9)
+        np.testing.assert_allclose(sa, sb, rtol=1e-6, atol=1e-9)
+
+
+def test_batched_fit_reaches_the_same_model(fitted, smooth3):
+    """Both optimisers maximise the same per-output MLLs from the same start."""
+    _, Y, _ = smooth3
+    Xt = np.random.default_rng(5).uniform(-1, 2, size=(300, 4))
+    a, b = fitted["per_output"].predict(Xt), fitted["batched"].predict(Xt)
+    for u, v in zip(a, b):  # mean and std, relative to each output's spread
+        assert np.all(np.abs(u - v).max(0) <= 1e-4 * Y.std(0))
+
+
+def test_single_output_shapes(smooth3):
+    X, Y, _ = smooth3
+    mean, std = GPSurrogate().fit(X, Y[:, 1]).predict(X[:4])
+    assert mean.shape == std.shape == (4, 1)
+
+
+def test_std_nonnegative_and_smaller_near_data(fitted, smooth3):
+    X, _, _ = smooth3
+    model = fitted["per_output"]
+    _, std_at = model.predict(X)
+    _, std_near = model.predict(X + 0.01)
+    _, std_far = model.predict(X + 3.0)
+    assert np.all(std_at >= 0) and np.all(std_far >= 0)
+    assert np.all(std_near < std_far)
+    assert np.all(std_at.mean(0) < 0.05 * std_far.mean(0))
+
+
+def test_deterministic_and_global_rng_untouched(smooth3):
+    X, Y, _ = smooth3
+    Xq = X[:6] + 0.05
+    torch.manual_seed(123)
+    before = torch.rand(3)
+    torch.manual_seed(123)
+    runs = [GPSurrogate(max_attempts=3, seed=7).fit(X, Y).predict(Xq) for _ in range(2)]
+    np.testing.assert_array_equal(runs[0][0], runs[1][0])
+    np.testing.assert_array_equal(runs[0][1], runs[1][1])
+    np.testing.assert_array_equal(torch.rand(3), before)
+
+
+def test_warm_start_same_quality_fewer_iterations(train_test, r2):
+    (X, Y), (Xt, Yt) = train_test["ackley"]
+    warm = GPSurrogate(warm_start=True).fit(X[:250], Y[:250])
+    warm.fit(X, Y)
+    cold = GPSurrogate(warm_start=False).fit(X, Y)
+    assert warm.fit_info["warm_started"] and not cold.fit_info["warm_started"]
+    assert sum(warm.fit_info["iterations"]) < sum(cold.fit_info["iterations"])
+    r2_warm, r2_cold = r2(Yt, warm.predict_mean(Xt))[0], r2(Yt, cold.predict_mean(Xt))[0]
+    assert r2_warm >= 0.9 and abs(r2_warm - r2_cold) < 0.01
+
+
+def test_warm_start_skipped_when_shapes_change(smooth3):
+    X, Y, _ = smooth3
+    model = GPSurrogate().fit(X, Y)
+    model.fit(X, Y[:, :2])
+    assert not model.fit_info["warm_started"]
+    model.fit(X[:, :3], Y[:, :2])
+    assert not model.fit_info["warm_started"]
+
+
+def test_degenerate_data_does_not_crash(smooth3):
+    X, Y, _ = smooth3
+    Xd = np.vstack([X, X[:15], X[:15]])                 # duplicate rows, twice
+    Yd = np.c_[np.vstack([Y, Y[:15], Y[:15]])[:, 0], np.full(len(Xd), -2.0)]  # constant
+    Xd[:, 2] = 0.3                                      # constant input column
+    model = GPSurrogate().fit(Xd, Yd)
+    mean, std = model.predict(Xd[:5] + 0.05)
+    assert np.all(np.isfinite(mean)) and np.all(np.isfinite(std)) and np.all(std >= 0)
+    np.testing.assert_allclose(mean[:, 1], -2.0, atol=1e-8)
+
+
+def test_fallback_noise_then_default_hyperparameters(smooth3, monkeypatch, caplog):
+    X, Y, _ = smooth3
+    calls = []
+
+    def failing_fit(mll, **kwargs):
+        calls.append(1)
+        raise NotPSDError("injected")
+
+    monkeypatch.setattr(gp_module, "fit_gpytorch_mll", failing_fit)
+    with caplog.at_level(logging.WARNING, logger="tmopt.surrogates.gp"):
+        model = GPSurrogate(fit_mode="batched").fit(X, Y)
+    assert model.fit_info["stage"] == "default_hypers" and len(calls) == 2
+    assert model.fit_info["noise_floor"] == pytest.approx(1e-4)
+    assert sum("failed" in r.message for r in caplog.records) == 2
+    mean, std = model.predict(X[:3])
+    assert np.all(np.isfinite(mean)) and np.all(std >= 0)
+
+
+def test_fallback_to_rbf_and_error_without_it(smooth3, monkeypatch, caplog):
+    X, Y, _ = smooth3
+
+    def failing_cholesky(*args, **kwargs):
+        raise NotPSDError("injected")
+
+    monkeypatch.setattr(gp_module, "psd_safe_cholesky", failing_cholesky)
+    with caplog.at_level(logging.WARNING, logger="tmopt.surrogates.gp"):
+        model = GPSurrogate(max_iter=5).fit(X, Y)
+    assert model.fit_info["stage"] == "rbf"
+    assert any("RBF" in r.message for r in caplog.records)
+    assert model.predict(X[:2])[0].shape == (2, 3)
+    with pytest.raises(SurrogateError, match="fell back"):
+        _ = model.model
+    with pytest.raises(SurrogateError, match="rbf_fallback=False"):
+        GPSurrogate(max_iter=5, rbf_fallback=False).fit(X, Y)
+
+
+def test_bad_data_and_unfitted_use(smooth3):
+    X, Y, _ = smooth3
+    Xnan = X.copy()
+    Xnan[0, 0] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        GPSurrogate().fit(Xnan, Y)
+    with pytest.raises(ValueError, match="at least 2"):
+        GPSurrogate().fit(X[:1], Y[:1])
+    with pytest.raises(SurrogateError, match="before fit"):
+        GPSurrogate().predict(X)
+    with pytest.raises(SurrogateError, match="not fitted"):
+        _ = GPSurrogate().model
+
+
+@pytest.mark.parametrize("kwargs,name", [
+    ({"kernel": "periodic"}, "kernel"), ({"noise_floor": 0.0}, "noise_floor"),
+    ({"noise_floor": 0.5}, "noise_floor"), ({"max_iter": 0}, "max_iter"),
+    ({"max_attempts": 0}, "max_attempts"), ({"fit_mode": "joint"}, "fit_mode"),
+    ({"seed": -3}, "seed"), ({"max_iter": True}, "max_iter"),
+])
+def test_bad_arguments_name_the_parameter(kwargs, name):
+    with pytest.raises(ValueError, match=rf"^{name}="):
+        GPSurrogate(**kwargs)
+
+
+def test_matern_kernel_fits(smooth3, r2):
+    X, Y, f = smooth3
+    model = GPSurrogate(kernel="matern52").fit(X, Y)
+    Xt = np.random.default_rng(6).uniform(-1, 2, size=(200, 4))
+    assert np.all(r2(f(Xt), model.predict_mean(Xt)) > 0.97)
