@@ -48,6 +48,10 @@ def build(cfg: DictConfig, choices: dict | None = None) -> tuple[ExpensiveProble
         raise ConfigError(f"budget={cfg.budget!r} is invalid: must be an integer >= 1")
     if isinstance(cfg.seed, bool) or not isinstance(cfg.seed, int) or cfg.seed < 0:
         raise ConfigError(f"seed={cfg.seed!r} is invalid: must be an integer >= 0")
+    limit = cfg.get("eval_time_limit")
+    if limit is not None and not (isinstance(limit, (int, float)) and 0 < limit < float("inf")):
+        raise ConfigError(f"eval_time_limit={limit!r} is invalid: must be null or a number "
+                          "of seconds > 0")
     problem = build_problem(cfg, choices.get("problem", ""))
     algorithm = build_algorithm(cfg, choices.get("algorithm", ""), choices.get("surrogate", ""))
     try:

@@ -157,7 +157,8 @@ def run_from_config(cfg: DictConfig) -> dict | None:
         result = run_optimisation(
             problem, algorithm, budget=cfg.budget, seed=cfg.seed, outdir=outdir,
             config_hash=config_hash(cfg), resume=cfg.resume, progress=cfg.progress,
-            plots=cfg.plots, extra_metrics=getattr(problem, "extra_metrics", None))
+            plots=cfg.plots, extra_metrics=getattr(problem, "extra_metrics", None),
+            eval_time_limit=cfg.eval_time_limit)
     except (ConfigError, ArchiveError, OSError) as exc:
         _record_failure(outdir, exc)
         log.error("tmopt: error: %s", exc)

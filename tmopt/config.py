@@ -18,7 +18,7 @@ import types
 import typing
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Optional
 
 from hydra.core.config_store import ConfigStore
 from hydra.utils import get_class
@@ -45,6 +45,8 @@ class RunConfig:
         progress: One progress line per generation.
         plots: Write PNG plots into the run folder.
         name: Label of the run or sweep (names the multirun folder).
+        eval_time_limit: Seconds allowed per design evaluation; a design that overruns
+            is recorded as failed and the run goes on (None: no limit).
     """
 
     problem: Any = MISSING
@@ -57,6 +59,7 @@ class RunConfig:
     progress: bool = True
     plots: bool = True
     name: str = "default"
+    eval_time_limit: Optional[float] = None  # noqa: UP045 - OmegaConf needs Optional
     extras: dict = field(default_factory=dict)
 
 

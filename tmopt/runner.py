@@ -47,6 +47,7 @@ def run_optimisation(
     progress: bool = True,
     plots: bool = True,
     extra_metrics=None,
+    eval_time_limit: float | None = None,
 ) -> RunResult:
     """Run ``algorithm`` on ``problem`` for ``budget`` real evaluations.
 
@@ -62,6 +63,7 @@ def run_optimisation(
         plots: Write PNG plots at the end.
         extra_metrics: Optional callable ``(problem, archive, pareto_idx) -> dict`` merged
             into ``metrics.json`` (e.g. simulator-specific numbers).
+        eval_time_limit: Seconds allowed per design evaluation (None: no limit).
     """
     from tmopt.outputs import finished_metrics, write_outputs
 
@@ -77,7 +79,8 @@ def run_optimisation(
              "seed": int(seed), "budget": int(budget)}
     archive = EvaluationArchive(outdir / ARCHIVE_FILE, problem.n_var, problem.n_obj,
                                 problem.n_ieq_constr, attrs) if outdir else None
-    evaluator = Evaluator(problem, budget, archive, replay=replay, seed=seed)
+    evaluator = Evaluator(problem, budget, archive, replay=replay, seed=seed,
+                          time_limit=eval_time_limit)
     resumed_from = 0 if replay is None else len(replay)
     if resumed_from:
         log.info("resuming from %d archived evaluations in %s (replayed, not re-evaluated)",
@@ -91,17 +94,29 @@ def run_optimisation(
             X = algorithm.ask()
             if len(X) == 0:
                 break
-            batch = evaluator.evaluate(X[: evaluator.remaining])
+            batch = _evaluate_or_explain(evaluator, X[: evaluator.remaining], outdir)
             algorithm.tell(batch)
             reporter.update(algorithm.n_gen, evaluator.archive.data, algorithm.info(),
                             replaying=evaluator.n_replayed_left > 0)
     finally:
         reporter.close()
+        evaluator.close()
     data = evaluator.archive.data
     metrics = write_outputs(problem, algorithm, data, outdir, seed=seed, budget=budget,
                             wall_time=time.perf_counter() - t0, config_hash=config_hash,
                             resumed_from=resumed_from, plots=plots, extra_metrics=extra_metrics)
     return RunResult(data, metrics, outdir, resumed_from=resumed_from)
+
+
+def _evaluate_or_explain(evaluator: Evaluator, X, outdir: Path | None):
+    """Evaluate a batch; if its archive write fails, say what is safe on disk."""
+    safe = evaluator.n_evals
+    try:
+        return evaluator.evaluate(X)
+    except OSError as exc:
+        raise OSError(exc.errno, f"cannot write the evaluation archive in {outdir}: "
+                      f"{exc.strerror or exc}; the {safe} evaluations archived before are "
+                      "intact and running the same command again resumes from them") from exc
 
 
 def _prepare_outdir(outdir) -> Path | None:

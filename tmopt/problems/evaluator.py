@@ -3,10 +3,11 @@
 Every real evaluation of a run goes through one :class:`Evaluator`. It
 
 * counts evaluations against the budget and refuses to exceed it;
-* isolates failures: if a vectorised evaluation raises, the batch is re-evaluated one
-  design at a time so only the offending designs fail; non-finite objectives or
-  constraints also mark a design as failed. A failed design is recorded with its reason
-  and handed to the algorithm as infeasible (see :func:`sanitise`), the run goes on;
+* isolates failures: if a vectorised evaluation raises (or overruns its time limit), the
+  batch is re-evaluated one design at a time so only the offending designs fail;
+  non-finite objectives or constraints also mark a design as failed. A failed design is
+  recorded with its reason and handed to the algorithm as infeasible (see
+  :func:`sanitise`), and the run goes on;
 * appends each batch to the on-disk archive before returning it, so a killed run loses
   nothing already evaluated;
 * resumes by replay: given the archive of an interrupted run, it answers the first
@@ -26,6 +27,7 @@ import numpy as np
 
 from tmopt.archive import ArchiveData, ArchiveError, EvaluationArchive
 from tmopt.problems.base import ExpensiveProblem
+from tmopt.problems.isolation import EvaluationTimeout, IsolatedProblem
 
 log = logging.getLogger(__name__)
 
@@ -62,11 +64,15 @@ class Evaluator:
         archive: Where to persist evaluations (None: keep in memory only).
         replay: Evaluations of an interrupted run to answer from before calling the problem.
         seed: Recorded with every evaluation (problems with noise use their own seed).
+        time_limit: Seconds allowed per design (None: no limit). With a limit, evaluations
+            run in a worker process (:mod:`tmopt.problems.isolation`); a design that
+            overruns it is marked failed and the run goes on.
     """
 
     def __init__(self, problem: ExpensiveProblem, budget: int,
                  archive: EvaluationArchive | None = None,
-                 replay: ArchiveData | None = None, seed: int = 0) -> None:
+                 replay: ArchiveData | None = None, seed: int = 0,
+                 time_limit: float | None = None) -> None:
         if isinstance(budget, bool) or not isinstance(budget, (int, np.integer)) or budget < 1:
             raise ValueError(f"budget must be an integer >= 1, got {budget!r}")
         self.problem = problem
@@ -77,6 +83,7 @@ class Evaluator:
         self._persist = archive is not None
         self._replay = replay
         self.n_batches = 0
+        self._isolated = IsolatedProblem(problem, time_limit) if time_limit else None
         if replay is not None and len(replay) > self.budget:
             raise ArchiveError(f"the archive holds {len(replay)} evaluations, more than "
                                f"budget={self.budget}; it belongs to a larger run")
@@ -150,8 +157,14 @@ class Evaluator:
                            seed=np.full(len(X), self.seed, dtype=np.int64),
                            wall_time=np.full(len(X), wall), batch=np.zeros(len(X), np.int64))
 
+    def close(self) -> None:
+        """Stop the evaluation worker, if any."""
+        if self._isolated is not None:
+            self._isolated.close()
+
     def _call_problem(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
-        out = self.problem.evaluate(X, return_as_dictionary=True)
+        out = self._isolated.evaluate(X) if self._isolated is not None \
+            else self.problem.evaluate(X, return_as_dictionary=True)
         n, p = len(X), self.problem
         F = np.asarray(out["F"], dtype=float).reshape(n, p.n_obj)
         G = (np.asarray(out["G"], dtype=float).reshape(n, p.n_ieq_constr)
@@ -169,6 +182,8 @@ class Evaluator:
         for i, x in enumerate(X):
             try:
                 F[i:i + 1], G[i:i + 1], reason[i:i + 1] = self._call_problem(x[None, :])
+            except EvaluationTimeout as exc:
+                reason[i] = str(exc)
             except Exception as exc:  # noqa: BLE001 - one design failing must not end the run
                 reason[i] = f"evaluation raised {type(exc).__name__}: {exc}"
         return F, G, reason

@@ -1,0 +1,200 @@
+"""Robustness: killed runs resume to the same result, faults stay local, bad input is refused.
+
+Numbers behind docs/robustness.md come from these tests.
+"""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import tmopt.archive
+from tmopt.algorithms.nsga2 import NSGA2
+from tmopt.archive import ArchiveError, read_archive
+from tmopt.cli import preflight
+from tmopt.config import ConfigError
+from tmopt.problems.evaluator import Evaluator
+from tmopt.problems.faulty import FaultyProblem
+from tmopt.runner import run_optimisation
+
+REPO = Path(__file__).resolve().parents[1]
+# A run slow enough to be killed mid-way: 20 designs per batch, 0.3 s per batch, with
+# designs that raise and designs that return NaN (both must survive the resume).
+SLOW_RUN = ["problem=faulty", "problem.batch_delay=0.3", "algorithm=nsga2",
+            "algorithm.pop_size=20", "budget=240", "plots=false"]
+
+
+def _tmopt(args, **kwargs) -> subprocess.Popen:
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    return subprocess.Popen([sys.executable, "-m", "tmopt", *args], cwd=REPO, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kwargs)
+
+
+def _finish(args) -> subprocess.CompletedProcess:
+    proc = _tmopt(args)
+    out, err = proc.communicate(timeout=600)
+    assert proc.returncode == 0, err
+    return subprocess.CompletedProcess(args, proc.returncode, out, err)
+
+
+def _rows(path: Path) -> int:
+    try:
+        return len(read_archive(path))
+    except (ArchiveError, FileNotFoundError):
+        return 0
+
+
+def _kill_when(proc: subprocess.Popen, archive: Path, rows: int, timeout: float = 300) -> int:
+    """SIGKILL ``proc`` once ``archive`` holds at least ``rows`` evaluations."""
+    deadline = time.time() + timeout
+    while time.time() < deadline and proc.poll() is None:
+        if _rows(archive) >= rows:
+            proc.send_signal(signal.SIGKILL)
+            proc.wait(30)
+            return _rows(archive)
+        time.sleep(0.05)
+    raise AssertionError(f"the run ended or stalled before {rows} evaluations were archived")
+
+
+def _same_archives(a, b, with_wall_time: bool = False) -> None:
+    assert np.array_equal(a.X, b.X)
+    assert np.array_equal(a.F, b.F, equal_nan=True)
+    assert np.array_equal(a.G, b.G, equal_nan=True)
+    assert np.array_equal(a.failed, b.failed) and a.reason == b.reason
+    if with_wall_time:
+        assert np.array_equal(a.wall_time, b.wall_time)
+
+
+def _result(run_dir: Path) -> dict:
+    m = json.loads((run_dir / "metrics.json").read_text())
+    return {k: m[k] for k in ("n_evals", "n_failed", "pareto_size", "best_objectives",
+                              "chosen", "igd", "hv")}
+
+
+def test_sigkill_mid_run_then_rerun_resumes_to_the_uninterrupted_result(tmp_path):
+    reference, killed = tmp_path / "reference", tmp_path / "killed"
+    _finish([*SLOW_RUN, f"hydra.run.dir={reference}"])
+
+    proc = _tmopt([*SLOW_RUN, f"hydra.run.dir={killed}"])
+    archived = _kill_when(proc, killed / "archive.h5", rows=100)
+    assert proc.returncode == -signal.SIGKILL and 100 <= archived < 240
+    assert not (killed / "metrics.json").exists()
+    before = read_archive(killed / "archive.h5")
+
+    _finish([*SLOW_RUN, f"hydra.run.dir={killed}"])
+    log = (killed / "tmopt.log").read_text()
+    assert f"resuming from {archived} archived evaluations" in log
+    after = read_archive(killed / "archive.h5")
+    # nothing evaluated before the kill was evaluated again (wall times are the archived ones)
+    _same_archives(before, after.rows(0, archived), with_wall_time=True)
+    # and the run ends exactly where an uninterrupted one does
+    _same_archives(read_archive(reference / "archive.h5"), after)
+    assert _result(killed) == _result(reference)
+    assert json.loads((killed / "metrics.json").read_text())["resumed_from"] == archived
+
+
+def test_killed_sweep_skips_finished_runs_and_resumes_the_unfinished(tmp_path):
+    sweep = ["-m", *SLOW_RUN, "seed=0,1", f"hydra.sweep.dir={tmp_path}"]
+    run0 = tmp_path / _run_folder(SLOW_RUN, "seed=0")
+    run1 = tmp_path / _run_folder(SLOW_RUN, "seed=1")
+    proc = _tmopt(sweep)
+    archived = _kill_when(proc, run1 / "archive.h5", rows=60)
+    assert (run0 / "metrics.json").exists()  # the first run had finished
+    finished = (run0 / "metrics.json").read_text()
+
+    _finish(sweep)
+    assert "already complete" in (run0 / "tmopt.log").read_text()
+    assert (run0 / "metrics.json").read_text() == finished
+    assert f"resuming from {archived}" in (run1 / "tmopt.log").read_text()
+    assert json.loads((run1 / "metrics.json").read_text())["n_evals"] == 240
+
+
+def _run_folder(args: list[str], extra: str) -> str:
+    """Hydra's override_dirname: sorted overrides, excluding the configured keys."""
+    skip = ("plots=", "hydra")
+    return ",".join(sorted([a for a in args if not a.startswith(skip)] + [extra]))
+
+
+def test_a_hung_design_fails_with_its_reason_and_the_others_are_evaluated():
+    p = FaultyProblem(hang_band=[0.0, 0.1], hang_seconds=120.0)
+    X = p.xl + (p.xu - p.xl) * np.random.default_rng(0).random((4, p.n_var))
+    X[[1, 3], 0] = p.xl[0]  # these two hang
+    ev = Evaluator(p, budget=10, time_limit=1.0)
+    t0 = time.time()
+    try:
+        batch = ev.evaluate(X)
+    finally:
+        ev.close()
+    assert time.time() - t0 < 60  # far less than one hang
+    assert batch.failed.tolist() == [False, True, False, True]
+    assert batch.reason[1] == "evaluation exceeded the time limit of 1 s per design"
+    good = p.evaluate(X[[0, 2]])[0]
+    assert np.array_equal(ev.archive.data.F[[0, 2]], good)
+
+
+def test_disk_full_during_an_archive_write_loses_nothing_already_archived(tmp_path,
+                                                                        monkeypatch):
+    problem = FaultyProblem(base="mw1", raise_band=None, nan_band=None)
+    reference = run_optimisation(problem, NSGA2(pop_size=20), budget=120, seed=3,
+                                 outdir=tmp_path / "reference", progress=False, plots=False)
+    real_replace, calls = os.replace, {"n": 0}
+
+    def full_disk(src, dst):
+        if str(dst).endswith("archive.h5"):
+            calls["n"] += 1
+            if calls["n"] == 3:
+                raise OSError(errno.ENOSPC, "No space left on device")
+        return real_replace(src, dst)
+
+    monkeypatch.setattr(tmopt.archive.os, "replace", full_disk)
+    run = tmp_path / "run"
+    with pytest.raises(OSError) as err:
+        run_optimisation(problem, NSGA2(pop_size=20), budget=120, seed=3, outdir=run,
+                         progress=False, plots=False)
+    assert "No space left on device" in str(err.value)
+    assert "40 evaluations archived before are intact" in str(err.value)
+    assert _rows(run / "archive.h5") == 40
+    assert not list(run.glob(".archive.h5.*"))  # no temporary file left behind
+    monkeypatch.setattr(tmopt.archive.os, "replace", real_replace)
+    resumed = run_optimisation(problem, NSGA2(pop_size=20), budget=120, seed=3, outdir=run,
+                               progress=False, plots=False)
+    assert resumed.resumed_from == 40
+    _same_archives(reference.archive, resumed.archive)
+
+
+# ---- bad input: a bounded fuzzing loop over configuration values ----------------------
+KEYS = ["budget", "seed", "eval_time_limit", "algorithm.pop_size", "problem.n_freq",
+        "problem.amplitude_bounds", "problem.period_bounds", "problem.epsilon",
+        "problem.noise_seed", "problem.controller", "problem.duration", "scheme",
+        "problem.key_tm", "algorithm.crossover_eta", "algorithm.mutation_eta"]
+VALUES = ["0", "-1", "1", "2", "3.5", "1e308", "-1e-308", "nan", "inf", "-inf", "abc", "''",
+          "null", "true", "[]", "[1]", "[2,1]", "[0,1e-4]", "{a:1}", "'x y'", "1e-12",
+          "99999999999999999999", "A", "D", "pid", "lqr"]
+
+
+def test_fuzzed_configuration_values_give_one_line_errors_or_valid_runs():
+    rng = np.random.default_rng(2024)
+    outcomes = {"valid": 0, "refused": 0}
+    deadline = time.time() + 120
+    cases = 0
+    while cases < 80 and time.time() < deadline:
+        picks = rng.choice(len(KEYS), size=rng.integers(1, 3), replace=False)
+        args = [f"{KEYS[i]}={VALUES[rng.integers(len(VALUES))]}" for i in picks]
+        args.append(f"hydra.run.dir={REPO}/outputs/fuzz")  # checked, never created
+        try:
+            preflight(args)
+            outcomes["valid"] += 1
+        except ConfigError as exc:
+            assert "\n" not in str(exc) and str(exc)
+            outcomes["refused"] += 1
+        cases += 1
+    assert cases >= 30 and outcomes["refused"] > outcomes["valid"] > 0
