@@ -198,3 +198,62 @@ def test_fuzzed_configuration_values_give_one_line_errors_or_valid_runs():
             outcomes["refused"] += 1
         cases += 1
     assert cases >= 30 and outcomes["refused"] > outcomes["valid"] > 0
+
+
+# ---- bad input: a bounded fuzzing loop over recording bytes ---------------------------
+def _valid_recording_files(tmp_path: Path) -> tuple[Path, Path]:
+    from tmopt.mismatch.recording import recording_from_simulation, write_recording
+    from tmopt.physics.excitation import MultiSine
+    from tmopt.physics.simulator import SimulationConfig, simulate
+
+    result = simulate(MultiSine(5e-5, 2 * np.pi / 300), MultiSine(3e-5, 2 * np.pi / 500),
+                      SimulationConfig(duration=60.0))
+    rec = recording_from_simulation(result, 0, description="fuzz seed")
+    return (write_recording(rec, tmp_path / "good.h5"),
+            write_recording(rec, tmp_path / "good.csv"))
+
+
+def _mutations(data: bytes, rng: np.random.Generator, n: int):
+    """Truncations, byte flips, zeroed blocks and garbage appended, ``n`` of them."""
+    for _ in range(n):
+        kind = rng.integers(4)
+        buf = bytearray(data)
+        if kind == 0:
+            yield bytes(buf[: rng.integers(0, len(buf))])
+        elif kind == 1:
+            for i in rng.integers(0, len(buf), size=rng.integers(1, 64)):
+                buf[i] ^= int(rng.integers(1, 256))
+            yield bytes(buf)
+        elif kind == 2:
+            start = rng.integers(0, len(buf))
+            buf[start:start + int(rng.integers(1, 4096))] = b"\0" * min(4096, len(buf) - start)
+            yield bytes(buf)
+        else:
+            yield bytes(buf) + rng.bytes(int(rng.integers(1, 512)))
+
+
+def test_fuzzed_recording_bytes_are_refused_or_read_as_valid(tmp_path):
+    from tmopt.mismatch.recording import Recording, RecordingError, read_recording, validate
+
+    h5, csv = _valid_recording_files(tmp_path)
+    sidecar = csv.with_suffix(".json")
+    rng = np.random.default_rng(7)
+    tally = {"refused": 0, "valid": 0}
+    deadline = time.time() + 90
+    targets = [(h5, h5.read_bytes()), (csv, csv.read_bytes()), (sidecar, sidecar.read_bytes())]
+    for path, original in targets:
+        for blob in _mutations(original, rng, 40):
+            if time.time() > deadline:
+                break
+            path.write_bytes(blob)
+            try:
+                rec = read_recording(csv if path == sidecar else path)
+            except RecordingError as exc:
+                assert str(exc) and "\n" not in str(exc).strip()
+                tally["refused"] += 1
+            else:  # a mutation may leave a file that is still a valid recording
+                assert isinstance(rec, Recording)
+                validate(rec)
+                tally["valid"] += 1
+        path.write_bytes(original)
+    assert tally["refused"] >= 60

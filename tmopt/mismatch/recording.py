@@ -428,7 +428,13 @@ def read_recording(path: str | Path) -> Recording:
     kind = _format_of(path)
     if not path.is_file():
         raise RecordingError(f"{path}: no such recording file")
-    raw = _read_h5(path) if kind == "h5" else _read_csv(path)
+    try:
+        raw = _read_h5(path) if kind == "h5" else _read_csv(path)
+    except RecordingError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - corrupt bytes make h5py raise anything
+        raise RecordingError(f"{path}: corrupt or unreadable recording "
+                             f"({type(exc).__name__}: {exc})") from exc
     return validate(raw, str(path))
 
 
