@@ -50,6 +50,30 @@ N_THETA = 5
 N_MF = 7  # Gaussian memberships per input
 N_RULE = N_MF * N_MF
 
+# --- layout of the perturbation vector ``pp`` (see simulator._pack_perturbations) ---
+# Flags are 1.0 (on) / 0.0 (off); with PP_ON = 0 the kernel runs the unperturbed model's
+# arithmetic unchanged (bit-identical to the simulator before the hooks existed).
+PP_ON = 0
+PP_GAIN = 1  # actuation gain series ps[S_GAIN + a]
+PP_DELAY = 2  # actuation delays pp[PP_TAU + a]
+PP_QUANT = 3  # actuation quantisation steps pp[PP_Q + a]
+PP_DK = 4  # stiffness change series ps[S_DK + a]
+PP_COUPLE = 5  # extra stiffness matrix pp[PP_C + 4 a + b]
+PP_CUBIC = 6  # cubic stiffness pp[PP_K3 + a]
+PP_FORCE = 7  # extra force series ps[S_FORCE + a]
+PP_ROT = 8  # spacecraft rotation series ps[S_OMEGA + j], ps[S_OMEGA_DOT + j]
+PP_READ = 9  # readout matrix pp[PP_M + 4 a + b]
+PP_TAU = 10
+PP_Q = 14
+PP_C = 18
+PP_K3 = 34
+PP_M = 38
+PP_R01 = 54  # lever arm CoM -> TM1, frame s (3)
+PP_R02 = 57  # lever arm CoM -> TM2, frame s (3)
+N_PP = 60
+# rows of the perturbation series ``ps`` (18, N)
+S_GAIN, S_DK, S_FORCE, S_OMEGA, S_OMEGA_DOT, N_S = 0, 4, 8, 12, 15, 18
+
 # divergence status codes (status[:, 0]); status[:, 1] is the sample index
 OK, OUT_X1, OUT_X2, OUT_Y1, OUT_Y2, BAD_FORCE, BAD_ESTIMATE = 0, 1, 2, 3, 4, 5, 6
 
@@ -187,7 +211,9 @@ def _clip1(x):
 
 
 @register_jitable
-def run_design(i, ref1, ref2, noise, par, c0, b0, out_ch, out_th, summary, status, record):
+def run_design(
+    i, ref1, ref2, noise, par, c0, b0, out_ch, out_th, summary, status, record, pp, ps
+):
     """Simulate design ``i`` for ``ref1.shape[1]`` samples and write its outputs.
 
     One sample n: measure (+N_m), control (FRBF-PID or PID on x, PID on y), apply the
@@ -195,13 +221,28 @@ def run_design(i, ref1, ref2, noise, par, c0, b0, out_ch, out_th, summary, statu
     acceleration at t_n (+N_acc), form the regression of Eqs. 10-15, update the RLS, and
     advance the state exactly to t_{n+1}.  On divergence (|r| > bound, non-finite force or
     estimate) the design stops and its remaining samples hold their last values.
+
+    ``pp`` / ``ps`` carry the instrument perturbations (layout above, meaning in
+    ``simulator.Perturbations``); with ``pp[PP_ON] == 0`` none of their code runs.
     """
     n_steps = ref1.shape[1]
     dt = par[P_DT]
     frbf = par[P_FRBF] > 0.5
+    pert = pp[PP_ON] > 0.5
     coef = np.empty((4, 3))
     for a in range(4):
         coef[a, 0], coef[a, 1], coef[a, 2] = zoh_coefficients(par[P_K + a], dt)
+    # perturbation work arrays (tiny when off)
+    split_at = np.zeros(4)  # delay: fraction delta of the step with the older command
+    lag = np.zeros(4, dtype=np.int64)  # delay: whole samples m
+    coef1 = np.empty((4, 3))  # ZOH over delta and over dt - delta
+    coef2 = np.empty((4, 3))
+    uhist = np.zeros((4, n_steps if pert and pp[PP_DELAY] > 0.5 else 1))
+    extra = np.zeros(4)
+    early = np.zeros(4)
+    late = np.zeros(4)
+    if pert and pp[PP_DELAY] > 0.5:
+        _delay_setup(par, pp, dt, lag, split_at, coef1, coef2)
     pos = np.zeros(4)
     vel = np.zeros(4)
     meas = np.zeros(4)
@@ -243,7 +284,10 @@ def run_design(i, ref1, ref2, noise, par, c0, b0, out_ch, out_th, summary, statu
         ref[0] = ref1[i, n]
         ref[1] = ref2[i, n]
         for a in range(4):
-            meas[a] = pos[a] + noise[a, n]
+            if pert and pp[PP_READ] > 0.5:
+                meas[a] = _readout(a, pos, pp) + noise[a, n]
+            else:
+                meas[a] = pos[a] + noise[a, n]
             e = ref[a] - meas[a]
             if a < 2 and frbf:
                 u[a] = _frbf_pid_axis(
@@ -273,17 +317,31 @@ def run_design(i, ref1, ref2, noise, par, c0, b0, out_ch, out_th, summary, statu
         fb[3] = par[P_WSB + 2] * fbx + par[P_WSB + 3] * fby
         for a in range(4):
             pos_n[a] = pos[a]
+        if pert:
+            # every perturbation force from the state at t_n, before any axis moves
+            _perturbation_forces(n, pos, vel, par, pp, ps, extra)
+            _actuation(n, u, pp, ps, uhist, lag, split_at, early, late)
         y_reg = 0.0
         for a in range(4):
-            applied = u[a] + noise[8 + a, n] + par[P_FD + a] - fb[a]
+            if pert:
+                # same association as below, so zero perturbations change no bit
+                applied = early[a] + noise[8 + a, n] + par[P_FD + a] - fb[a] + extra[a]
+            else:
+                applied = u[a] + noise[8 + a, n] + par[P_FD + a] - fb[a]
             acc[a] = par[P_K + a] * pos[a] + applied + noise[4 + a, n]  # r'' at t_n + N_acc
             # Eqs. 10-15: y = K.(r'' - f_e) with measured r'' and commanded f_e
             y_reg += par[P_KC + a] * (acc[a] - u[a])
             psi[a] = par[P_KC + a] * meas[a] / psi_scale[a]
-            # propagate this axis exactly to t_{n+1} (force held over the interval)
-            p, v = pos[a], vel[a]
-            pos[a] = coef[a, 0] * p + coef[a, 1] * v + coef[a, 2] * applied
-            vel[a] = par[P_K + a] * coef[a, 1] * p + coef[a, 0] * v + coef[a, 1] * applied
+            if pert and split_at[a] > 0.0:
+                # delayed actuation switches command inside the step: two exact ZOH pieces
+                applied2 = late[a] + noise[8 + a, n] + par[P_FD + a] - fb[a] + extra[a]
+                _zoh_advance(a, pos, vel, par[P_K + a], coef1, applied)
+                _zoh_advance(a, pos, vel, par[P_K + a], coef2, applied2)
+            else:
+                # propagate this axis exactly to t_{n+1} (force held over the interval)
+                p, v = pos[a], vel[a]
+                pos[a] = coef[a, 0] * p + coef[a, 1] * v + coef[a, 2] * applied
+                vel[a] = par[P_K + a] * coef[a, 1] * p + coef[a, 0] * v + coef[a, 1] * applied
         psi[4] = 1.0
         rls_update(theta, P, psi, y_reg / par[P_SOUT], par[P_LAM], ppsi)
         for k in range(N_THETA):
@@ -317,6 +375,130 @@ def run_design(i, ref1, ref2, noise, par, c0, b0, out_ch, out_th, summary, statu
         if record:
             for ch in range(N_CH):
                 out_ch[ch, i, n] = out_ch[ch, i, last]
+
+
+@register_jitable
+def _zoh_advance(a, pos, vel, k, cf, force):
+    """Exact ZOH step of axis ``a`` with coefficients ``cf[a]`` (any step length)."""
+    p, v = pos[a], vel[a]
+    pos[a] = cf[a, 0] * p + cf[a, 1] * v + cf[a, 2] * force
+    vel[a] = k * cf[a, 1] * p + cf[a, 0] * v + cf[a, 1] * force
+
+
+@register_jitable
+def _delay_setup(par, pp, dt, lag, split_at, coef1, coef2):
+    """Split each delay tau = m dt + delta (0 <= delta < dt) and the ZOH over delta, dt - delta.
+
+    The applied command is ``u(t - tau)`` with ``u`` piecewise constant (ZOH), so over
+    [t_n, t_n + delta) it is u_{n-m-1} and over [t_n + delta, t_{n+1}) it is u_{n-m}:
+    two exact ZOH pieces, no interpolation.
+    """
+    for a in range(4):
+        tau = pp[PP_TAU + a]
+        m = int(math.floor(tau / dt + 1e-9))  # 1e-9: tau = m dt written in decimal
+        delta = tau - m * dt
+        if delta < 1e-9 * dt:
+            delta = 0.0
+        lag[a] = m
+        split_at[a] = delta
+        k = par[P_K + a]
+        coef1[a, 0], coef1[a, 1], coef1[a, 2] = zoh_coefficients(k, max(delta, 1e-300))
+        coef2[a, 0], coef2[a, 1], coef2[a, 2] = zoh_coefficients(k, dt - delta)
+
+
+@register_jitable
+def _actuation(n, u, pp, ps, uhist, lag, split_at, early, late):
+    """Force the actuators apply over [t_n, t_n + delta) (``early``) and after (``late``).
+
+    Chain per axis: command u -> delay tau (held commands, see ``_delay_setup``) ->
+    quantisation ``q * floor(u / q + 1/2)`` -> gain ``(1 + g_n)``.  Commands before t_0
+    are 0 (the controller starts from rest).
+    """
+    delay = pp[PP_DELAY] > 0.5
+    for a in range(4):
+        if delay:
+            uhist[a, n] = u[a]
+            j = n - lag[a]
+            late[a] = uhist[a, j] if j >= 0 else 0.0
+            early[a] = (uhist[a, j - 1] if j >= 1 else 0.0) if split_at[a] > 0.0 else late[a]
+        else:
+            late[a] = u[a]
+            early[a] = u[a]
+        step = pp[PP_Q + a]
+        if pp[PP_QUANT] > 0.5 and step > 0.0:
+            late[a] = step * math.floor(late[a] / step + 0.5)
+            early[a] = step * math.floor(early[a] / step + 0.5)
+        if pp[PP_GAIN] > 0.5:
+            gain = 1.0 + ps[S_GAIN + a, n]
+            late[a] = gain * late[a]
+            early[a] = gain * early[a]
+
+
+@register_jitable
+def _readout(a, pos, pp):
+    """Displacement readout of axis ``a`` before noise: ``sum_b M[a, b] r_b`` (M = I nominal)."""
+    s = 0.0
+    for b in range(4):
+        s += pp[PP_M + 4 * a + b] * pos[b]
+    return s
+
+
+@register_jitable
+def _perturbation_forces(n, pos, vel, par, pp, ps, extra):
+    """Extra acceleration of each axis at t_n, held over the step (ZOH of the perturbation).
+
+    ``dk_n r`` (stiffness change), ``sum_b C[a, b] r_b`` (stiffness coupling), ``k3 r^3``
+    (cubic stiffness), the external force series, and the rotation terms of Eq. 1.
+    """
+    for a in range(4):
+        f = 0.0
+        if pp[PP_DK] > 0.5:
+            f += ps[S_DK + a, n] * pos[a]
+        if pp[PP_COUPLE] > 0.5:
+            for b in range(4):
+                f += pp[PP_C + 4 * a + b] * pos[b]
+        if pp[PP_CUBIC] > 0.5:
+            f += pp[PP_K3 + a] * pos[a] * pos[a] * pos[a]
+        if pp[PP_FORCE] > 0.5:
+            f += ps[S_FORCE + a, n]
+        extra[a] = f
+    if pp[PP_ROT] > 0.5:
+        _rotation_terms(n, pos, vel, par, pp, ps, 0, 2, P_WSA, PP_R01, extra)
+        _rotation_terms(n, pos, vel, par, pp, ps, 1, 3, P_WSB, PP_R02, extra)
+
+
+@register_jitable
+def _rotation_terms(n, pos, vel, par, pp, ps, ax, ay, pw, pr, extra):
+    """Eq. 1's rotation terms for one TM: ``rho x w' + 2 rho' x w + w x (rho x w)``.
+
+    ``rho = r0i + W^T r`` is the TM centre from the spacecraft CoM in frame s (lever arm of
+    the layout plus the TM displacement), ``w``, ``w'`` the spacecraft rate and angular
+    acceleration in frame s; the result is rotated into the TM frame by ``W`` (a rotation
+    about z, so only the in-plane block is needed) and added to axes ``ax`` (x), ``ay`` (y).
+    """
+    w00, w01, w10, w11 = par[pw], par[pw + 1], par[pw + 2], par[pw + 3]
+    # TM frame -> s with W^T (z components of r and r' are 0: no z motion is modelled)
+    rx = pp[pr] + w00 * pos[ax] + w10 * pos[ay]
+    ry = pp[pr + 1] + w01 * pos[ax] + w11 * pos[ay]
+    rz = pp[pr + 2]
+    vx = w00 * vel[ax] + w10 * vel[ay]
+    vy = w01 * vel[ax] + w11 * vel[ay]
+    ox, oy, oz = ps[S_OMEGA, n], ps[S_OMEGA + 1, n], ps[S_OMEGA + 2, n]
+    dx, dy, dz = ps[S_OMEGA_DOT, n], ps[S_OMEGA_DOT + 1, n], ps[S_OMEGA_DOT + 2, n]
+    # rho x w'
+    ax_s = ry * dz - rz * dy
+    ay_s = rz * dx - rx * dz
+    # 2 rho' x w (rho'_z = 0)
+    ax_s += 2.0 * (vy * oz)
+    ay_s += 2.0 * (-vx * oz)
+    # w x (rho x w)
+    cx = ry * oz - rz * oy
+    cy = rz * ox - rx * oz
+    cz = rx * oy - ry * ox
+    ax_s += oy * cz - oz * cy
+    ay_s += oz * cx - ox * cz
+    extra[ax] += w00 * ax_s + w01 * ay_s
+    extra[ay] += w10 * ax_s + w11 * ay_s
 
 
 @register_jitable
@@ -373,10 +555,14 @@ def _record(i, n, pos_n, meas, acc, u, par, ref, out_ch, summary, record):
 
 
 @nb.njit(parallel=True, cache=True)
-def batch_kernel(ref1, ref2, noise, par, c0, b0, out_ch, out_th, summary, status, record):
+def batch_kernel(
+    ref1, ref2, noise, par, c0, b0, out_ch, out_th, summary, status, record, pp, ps
+):
     """All designs of a batch in parallel (one design per thread iteration)."""
     for i in nb.prange(ref1.shape[0]):
-        run_design(i, ref1, ref2, noise, par, c0, b0, out_ch, out_th, summary, status, record)
+        run_design(
+            i, ref1, ref2, noise, par, c0, b0, out_ch, out_th, summary, status, record, pp, ps
+        )
 
 
 @nb.njit(parallel=True, cache=True)

@@ -19,7 +19,14 @@ from tmopt.physics.excitation import MultiSine, sample_times
 from tmopt.physics.geometry import Geometry
 from tmopt.physics.noise import noise_realisation, noise_sigmas
 
-__all__ = ["SimulationConfig", "SimulationResult", "simulate", "CHANNEL_NAMES", "REASONS"]
+__all__ = [
+    "SimulationConfig",
+    "SimulationResult",
+    "Perturbations",
+    "simulate",
+    "CHANNEL_NAMES",
+    "REASONS",
+]
 
 #: Recorded per-design channels, in the kernel's order.
 CHANNEL_NAMES: tuple[str, ...] = (
@@ -153,6 +160,120 @@ class SimulationConfig:
         )
 
 
+_AXES = "[x1, x2, y1, y2]"
+
+
+@dataclass(frozen=True, eq=False)
+class Perturbations:
+    """Deviations of the true instrument from the nominal model (every field default off).
+
+    Instrument properties, common to all designs of a batch.  Axis order ``[x1, x2, y1,
+    y2]`` (TM1 in frame a, TM2 in frame b); series have one column per sample, value
+    held over ``[t_n, t_{n+1})``.  With every field ``None`` the simulation is
+    bit-identical to ``perturbations=None``; neutral values (zeros, identity readout)
+    change no bit either.
+
+    * ``actuation_gain`` (4, N): applied force ``(1 + g) * command`` [1].
+    * ``actuation_delay`` (4,): the applied force is the command delayed by ``tau`` [s]
+      (>= 0); fractional delays are exact (the step is split, see ``_delay_setup``).
+    * ``actuation_step`` (4,): quantisation step ``q`` [m s^-2] of the applied command,
+      ``q * floor(u / q + 1/2)``; 0 = none.  Order: delay, quantise, gain.
+    * ``stiffness_change`` (4, N): extra diagonal stiffness ``dk_n`` [s^-2], force
+      ``dk_n r(t_n)`` (drift of k).
+    * ``stiffness_coupling`` (4, 4): extra stiffness matrix ``C`` [s^-2], force
+      ``sum_b C[a, b] r_b(t_n)`` (the cross-coupling terms Sec. 2.2 neglects).
+    * ``cubic_stiffness`` (4,): force ``k3 r(t_n)^3`` [m^-2 s^-2].
+    * ``force`` (4, N): extra force per unit mass [m s^-2] (glitches, coloured noise, bias
+      drift); pass interval averages to keep impulses exact.
+    * ``omega``, ``omega_dot`` (3, N): spacecraft rate [rad s^-1] and angular acceleration
+      [rad s^-2] in frame s at t_n; adds Eq. 1's ``rho x w' + 2 rho' x w + w x (rho x w)``
+      per TM with ``rho`` = lever arm (``Geometry.r01_s`` / ``r02_s``) + displacement.
+    * ``readout`` (4, 4): readout matrix ``M``, measured ``= M r + N_m`` (identity =
+      nominal; ``1 + s`` on the diagonal is a scale error, off-diagonal terms cross-talk).
+
+    State-dependent forces are evaluated at t_n and held over the step (ZOH of the
+    perturbation force); the error is that of a half-step delay of the perturbation
+    (relative ~ omega h / 2 ~ 1e-3 for the slow motions here), see
+    docs/mismatch-generator.md.
+    """
+
+    actuation_gain: np.ndarray | None = None
+    actuation_delay: tuple[float, float, float, float] | None = None
+    actuation_step: tuple[float, float, float, float] | None = None
+    stiffness_change: np.ndarray | None = None
+    stiffness_coupling: np.ndarray | None = None
+    cubic_stiffness: tuple[float, float, float, float] | None = None
+    force: np.ndarray | None = None
+    omega: np.ndarray | None = None
+    omega_dot: np.ndarray | None = None
+    readout: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        shapes = {"actuation_delay": (4,), "actuation_step": (4,), "cubic_stiffness": (4,),
+                  "stiffness_coupling": (4, 4), "readout": (4, 4)}  # fmt: skip
+        for name, shape in shapes.items():
+            _perturbation_array(name, getattr(self, name), shape)
+        for name in ("actuation_delay", "actuation_step"):
+            v = getattr(self, name)
+            if v is not None and min(v) < 0:
+                raise ValueError(f"{name} must be in [0, inf) per axis {_AXES}; got {v!r}")
+        if (self.omega is None) != (self.omega_dot is None):
+            raise ValueError("omega and omega_dot come together (both (3, N) or both None)")
+
+    @property
+    def active(self) -> bool:
+        return any(getattr(self, f) is not None for f in self.__dataclass_fields__)
+
+
+def _perturbation_array(name: str, value: object, shape: tuple[int, ...]) -> np.ndarray | None:
+    if value is None:
+        return None
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.shape != shape:
+        raise ValueError(f"Perturbations.{name} must have shape {shape}; got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"Perturbations.{name} must be finite (no NaN/inf)")
+    return arr
+
+
+def _pack_perturbations(
+    pert: Perturbations | None, cfg: SimulationConfig, n: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Kernel vectors ``pp`` (flags, constants) and ``ps`` (series), layout in _closed_loop."""
+    pp = np.zeros(cl.N_PP)
+    if pert is not None and not isinstance(pert, Perturbations):
+        raise ValueError("perturbations must be a tmopt.physics.simulator.Perturbations")
+    if pert is None or not pert.active:
+        return pp, np.zeros((cl.N_S, 1))
+    pp[cl.PP_ON] = 1.0
+    pp[cl.PP_M : cl.PP_M + 16] = np.eye(4).ravel()
+    pp[cl.PP_R01 : cl.PP_R01 + 3] = cfg.geometry.r01_s
+    pp[cl.PP_R02 : cl.PP_R02 + 3] = cfg.geometry.r02_s
+    consts = [("actuation_delay", cl.PP_DELAY, cl.PP_TAU, (4,)),
+              ("actuation_step", cl.PP_QUANT, cl.PP_Q, (4,)),
+              ("stiffness_coupling", cl.PP_COUPLE, cl.PP_C, (4, 4)),
+              ("cubic_stiffness", cl.PP_CUBIC, cl.PP_K3, (4,)),
+              ("readout", cl.PP_READ, cl.PP_M, (4, 4))]  # fmt: skip
+    for name, flag, at, shape in consts:
+        arr = _perturbation_array(name, getattr(pert, name), shape)
+        if arr is not None:
+            pp[flag] = 1.0
+            pp[at : at + arr.size] = arr.ravel()
+    if pert.actuation_delay is not None and max(pert.actuation_delay) >= cfg.duration:
+        raise ValueError(f"Perturbations.actuation_delay must be in [0, {cfg.duration:g}) s "
+                         f"(the run's duration); got {pert.actuation_delay!r}")  # fmt: skip
+    ps = np.zeros((cl.N_S, n))
+    series = [("actuation_gain", cl.PP_GAIN, cl.S_GAIN, 4), ("stiffness_change", cl.PP_DK,
+              cl.S_DK, 4), ("force", cl.PP_FORCE, cl.S_FORCE, 4),
+              ("omega", cl.PP_ROT, cl.S_OMEGA, 3), ("omega_dot", cl.PP_ROT, cl.S_OMEGA_DOT, 3)]
+    for name, flag, row, rows in series:  # fmt: skip
+        arr = _perturbation_array(name, getattr(pert, name), (rows, n))
+        if arr is not None:
+            pp[flag] = 1.0
+            ps[row : row + rows] = arr
+    return pp, ps
+
+
 @dataclass
 class SimulationResult:
     """Output of :func:`simulate` for B designs and N samples.
@@ -165,6 +286,7 @@ class SimulationResult:
     time [s] (NaN-free: -1 when fine).  After divergence every channel holds its last
     value.  ``max_tracking_error`` / ``steady_tracking_error`` (B, 2) are ``max|r - x|``
     (true x) of TM1/TM2 over the whole run and over ``t >= config.steady_after``.
+    ``perturbations`` is what the run was given (None: the nominal model).
     """
 
     time: np.ndarray
@@ -179,6 +301,7 @@ class SimulationResult:
     steady_tracking_error: np.ndarray
     config: SimulationConfig
     seed: int
+    perturbations: Perturbations | None = None
 
     def __getattr__(self, name: str) -> np.ndarray:
         if name in CHANNEL_NAMES:
@@ -255,6 +378,7 @@ def prepare(
     ref2: MultiSine | np.ndarray,
     config: SimulationConfig,
     seed: int,
+    perturbations: Perturbations | None = None,
 ) -> dict:
     """Validated kernel inputs and zeroed outputs (shared by the batch and reference paths)."""
     if not isinstance(config, SimulationConfig):
@@ -268,6 +392,7 @@ def prepare(
                          f"got {r1.shape[0]} and {r2.shape[0]}")  # fmt: skip
     b, n = r1.shape
     record = config.record == "full"
+    pp, ps = _pack_perturbations(perturbations, config, n)
     return {
         "time": t,
         "ref1": r1,
@@ -282,6 +407,9 @@ def prepare(
         "summary": np.zeros((b, 4)),
         "status": np.zeros((b, 2), dtype=np.int64),
         "record": record,
+        "pp": pp,
+        "ps": ps,
+        "perturbations": perturbations,
     }
 
 
@@ -307,11 +435,12 @@ def _finish(io: dict, config: SimulationConfig, seed: int) -> SimulationResult:
         steady_tracking_error=io["summary"][:, 2:].copy(),
         config=config,
         seed=int(seed),
+        perturbations=io["perturbations"],
     )
 
 
 _KERNEL_ARGS = ("ref1", "ref2", "noise", "par", "c0", "b0", "out_ch", "out_th", "summary",
-                "status", "record")  # fmt: skip
+                "status", "record", "pp", "ps")  # fmt: skip
 
 
 def simulate(
@@ -319,16 +448,18 @@ def simulate(
     ref2: MultiSine | np.ndarray,
     config: SimulationConfig | None = None,
     seed: int = 0,
+    perturbations: Perturbations | None = None,
 ) -> SimulationResult:
     """Closed-loop simulation + online identification of B designs at once (compiled).
 
     ``ref1`` / ``ref2``: sensitive-axis references of TM1 / TM2, each a :class:`MultiSine`
     with B designs or an array (B, N) sampled at ``config``'s grid.  ``seed`` selects the
     noise realisation, common to all designs (so design i's result does not depend on the
-    batch it is in).
+    batch it is in).  ``perturbations`` (default None: the nominal model) injects
+    instrument deviations, see :class:`Perturbations`.
     """
     config = SimulationConfig() if config is None else config
-    io = prepare(ref1, ref2, config, seed)
+    io = prepare(ref1, ref2, config, seed, perturbations)
     cl.batch_kernel(*(io[k] for k in _KERNEL_ARGS))
     return _finish(io, config, seed)
 
@@ -338,6 +469,7 @@ def simulate_reference(
     ref2: MultiSine | np.ndarray,
     config: SimulationConfig | None = None,
     seed: int = 0,
+    perturbations: Perturbations | None = None,
 ) -> SimulationResult:
     """The same model run design by design in the plain Python interpreter (slow).
 
@@ -345,7 +477,7 @@ def simulate_reference(
     reference and an independent check that compilation does not change the model.
     """
     config = SimulationConfig() if config is None else config
-    io = prepare(ref1, ref2, config, seed)
+    io = prepare(ref1, ref2, config, seed, perturbations)
     args = [io[k] for k in _KERNEL_ARGS]
     for i in range(io["ref1"].shape[0]):
         cl.run_design(i, *args)
