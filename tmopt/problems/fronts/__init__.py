@@ -18,9 +18,20 @@ import numpy as np
 from tmopt.problems.fronts import cdtlz, dascmop, designs, mw
 from tmopt.problems.fronts.sampling import FrontSample
 
-__all__ = ["FrontSample", "front_designs", "front_sample", "pareto_front", "split_name"]
+__all__ = ["FRONT_SOURCE", "FrontSample", "front_designs", "front_sample", "pareto_front",
+           "split_name"]
 
 CDTLZ = ("c1dtlz1", "c1dtlz3", "c2dtlz2", "c3dtlz1", "c3dtlz4")
+#: How each front is obtained: "analytic" (closed form, at most filtered by the
+#: constraints), "sampled" (lowest feasible point along a dense set of directions, then the
+#: non-dominated ones) or both. No front is shipped as a file.
+FRONT_SOURCE = {
+    **{f"mw{k}": "sampled" for k in (1, 3, 6, 7, 9, 10, 11, 12, 13)},
+    "mw2": "analytic", "mw4": "analytic", "mw8": "analytic", "mw14": "analytic",
+    "mw5": "analytic (16 points) + sampled (arcs)",
+    **{name: "analytic" for name in CDTLZ},
+    **{f"dascmop{k}": "sampled" for k in range(1, 10)},
+}
 FAMILY_SIZE = {"mw": 14, "dascmop": 9}
 
 
