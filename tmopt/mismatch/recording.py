@@ -564,18 +564,25 @@ def write_recording(
     checked = validate(rec, str(path))
     path.parent.mkdir(parents=True, exist_ok=True)
     if kind == "h5":
-        _atomic(path, lambda tmp: _write_h5(checked, tmp))
+        atomic_write(path, lambda tmp: _write_h5(checked, tmp))
     else:
         attrs = json.dumps(_json_attrs(checked.attrs), indent=2, sort_keys=True)
-        _atomic(sidecar_path(path), lambda tmp: Path(tmp).write_text(attrs, encoding="utf-8"))
-        _atomic(path, lambda tmp: _write_csv(checked, tmp))
+        atomic_write(sidecar_path(path), lambda tmp: Path(tmp).write_text(attrs, encoding="utf-8"))
+        atomic_write(path, lambda tmp: _write_csv(checked, tmp))
     return path
 
 
-def _atomic(path: Path, write: Any) -> None:
+def atomic_write(path: Path, write: Any) -> None:
+    """Call ``write(tmp)`` on a temporary file next to ``path``, then rename it into place.
+
+    The file is made ``0o644`` (mkstemp's 0o600 would hide recordings from the other
+    users of a shared folder; reading the umask would need a process-wide, racy call).
+    """
+    path = Path(path)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     os.close(fd)
     try:
+        os.chmod(tmp, 0o644)
         write(tmp)
         with open(tmp, "rb") as fh:
             os.fsync(fh.fileno())
