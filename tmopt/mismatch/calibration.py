@@ -1,0 +1,27 @@
+"""Calibrated decision thresholds of the mismatch tool.
+
+The values below come from the false-alarm study ``experiments/mismatch_calibration.py``
+(clean recordings: several seeds, excitations, noise levels, durations and sample rates;
+see docs/mismatch.md, "Calibration").  They are constants here, not tuned per recording.
+
+* ``FAMILY_ALPHA`` -- family-wise error rate of the catalogue test at each greedy step:
+  the candidates' p-values (chi^2 of the generalised likelihood ratio, times the trials
+  factor of any parameter search) are Holm-corrected across the whole catalogue
+  (Holm, Scand. J. Stat. 6, 65 (1979)) and a candidate is significant below this level.
+* ``LOCATE_ALPHA`` -- family-wise level of the locate step (Bonferroni over frequency
+  bins and time windows) that decides "unexplained mismatch".
+* ``AMBIGUOUS_DBIC`` -- two explanations whose BIC differ by less than this are reported
+  as competing (6 = "strong" evidence, Kass & Raftery, JASA 90, 773 (1995)).
+* ``ALIASED_R2`` -- a candidate regressor with this much of its variance inside the span
+  of the nominal regressors is called *aliased* with them (rather than merely not excited).
+"""
+
+from __future__ import annotations
+
+__all__ = ["FAMILY_ALPHA", "LOCATE_ALPHA", "AMBIGUOUS_DBIC", "ALIASED_R2", "LJUNG_BOX_LAGS"]
+
+FAMILY_ALPHA: float = 0.01
+LOCATE_ALPHA: float = 0.01
+AMBIGUOUS_DBIC: float = 6.0
+ALIASED_R2: float = 0.99
+LJUNG_BOX_LAGS: int = 20

@@ -1,0 +1,442 @@
+"""Explain a mismatch: evidence for each catalogue effect, greedy selection, identifiability.
+
+Procedure (Karnesis et al., PRD 89, 062001 (2014) for model selection in LPF system
+identification; here with the frequentist twin of their Bayes factors):
+
+1. fit the nominal model (Eqs. 9-15 on both f_B-free combinations; kinematic nuisance);
+2. for every catalogue candidate, the generalised likelihood ratio ``L = n log(RSS0/RSS1)``
+   of adding its regressors, on data whitened by the current noise model (GLS), with
+   ``L ~ chi^2_dof`` under "no such effect" (Wilks); searched parameters multiply the
+   p-value by their trials factor (Bonferroni); colored noise is an AR likelihood ratio;
+3. Holm-correct the p-values over the whole catalogue; among the significant candidates
+   (``p_holm < FAMILY_ALPHA``, calibrated) add the one with the largest ``dBIC = L - dof
+   ln n`` to the model, refit (noise re-estimated), repeat -- so two effects are found in
+   turn; stop when nothing is significant;
+4. what remains located by :mod:`tmopt.mismatch.locate` is "unexplained";
+5. identifiability: a candidate whose minimum detectable parameter (Holm/Bonferroni
+   threshold x standard error *with* the nominal parameters free) exceeds its plausible
+   magnitude cannot be seen with this excitation -- "aliased" when >= ALIASED_R2 of its
+   regressor lies in the nominal span (it would bias a nominal parameter instead).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import stats
+from statsmodels.stats.diagnostic import acorr_ljungbox
+from statsmodels.stats.multitest import multipletests
+
+from tmopt.mismatch import calibration as cal
+from tmopt.mismatch.effects import CATALOGUE, Candidate, Context
+from tmopt.mismatch.fit import (
+    AXES,
+    Column,
+    Data,
+    FitResult,
+    equation_target,
+    kinematic_target,
+    nominal_equation_columns,
+    nominal_kinematic_columns,
+    null_basis,
+    output_error,
+    solve,
+    solve_iv,
+)
+from tmopt.mismatch.locate import Locations, axis_directions, locate
+from tmopt.mismatch.noise_model import SpatialNoise, SpectralNoise, ar_fits, prediction_errors
+
+__all__ = ["Settings", "Evaluation", "State", "Diagnosis", "diagnose", "fit_state"]
+
+
+@dataclass(frozen=True)
+class Settings:
+    alpha: float = cal.FAMILY_ALPHA
+    locate_alpha: float = cal.LOCATE_ALPHA
+    max_effects: int = 4
+    ar_max: int = 8
+
+
+@dataclass
+class State:
+    """A fitted model: both groups' columns, noise models and fits."""
+
+    eq_cols: list[Column]
+    kin_cols: list[Column]
+    ar_order: int
+    eq_fit: FitResult
+    eq_noise: SpatialNoise
+    kin_fit: FitResult
+    kin_noise: SpectralNoise
+    n_nominal_eq: int
+    n_nominal_kin: int
+
+
+@dataclass
+class Evaluation:
+    candidate: Candidate
+    glr: float
+    dof: int
+    n_obs: int
+    p_value: float
+    p_holm: float = 1.0
+
+    @property
+    def dbic(self) -> float:
+        return self.glr - self.dof * math.log(self.n_obs)
+
+
+@dataclass
+class Diagnosis:
+    data: Data
+    basis: np.ndarray
+    before: State
+    after: State
+    selected: list[tuple[Evaluation, list[Evaluation]]]
+    locations: Locations
+    locations_after: Locations
+    not_identifiable: list[dict]
+    settings: Settings
+    steps: list[list[Evaluation]] = field(default_factory=list)
+
+    @property
+    def unexplained(self) -> bool:
+        return self.locations_after.any
+
+    @property
+    def mismatch_detected(self) -> bool:
+        return bool(self.selected) or self.unexplained
+
+
+# ---------------------------------------------------------------------------- fitting
+
+
+def _fit_eq(target, cols, ar_order, order_max, rounds=2):
+    noise = SpatialNoise.estimate(solve(target, cols, lambda v: v).residual, order=order_max)
+    fit = solve(target, cols, noise.whiten)
+    for _ in range(rounds):
+        noise = SpatialNoise.estimate(fit.residual, order=order_max)
+        if ar_order:
+            noise = noise.with_ar(fit.residual, ar_order)
+        fit = solve(target, cols, noise.whiten)
+    return fit, noise
+
+
+def _fit_kin(target, cols, rounds=2):
+    """Kinematic group: instrumental variables (closed loop), spectral noise re-estimated."""
+    fit = solve_iv(target, cols, lambda v: v)
+    noise = SpectralNoise.estimate(fit.residual)
+    for _ in range(rounds):
+        fit = solve_iv(target, cols, noise.whiten)
+        noise = SpectralNoise.estimate(fit.residual)
+    return fit, noise
+
+
+def fit_state(data: Data, basis: np.ndarray, eq_extra: list[Column], kin_extra: list[Column],
+              ar_order: int, settings: Settings) -> State:  # fmt: skip
+    """Fit the nominal model plus the given extra columns, noise models re-estimated."""
+    eq_nom = nominal_equation_columns(data, basis)
+    kin_nom = nominal_kinematic_columns(data)
+    eq_fit, eq_noise = _fit_eq(equation_target(data, basis), eq_nom + eq_extra, ar_order,
+                               settings.ar_max)  # fmt: skip
+    kin_fit, kin_noise = _fit_kin(kinematic_target(data), kin_nom + kin_extra)
+    return State(eq_nom + eq_extra, kin_nom + kin_extra, ar_order, eq_fit, eq_noise, kin_fit,
+                 kin_noise, len(eq_nom), len(kin_nom))  # fmt: skip
+
+
+# --------------------------------------------------------------------------- evidence
+
+
+def _orth(cols: list[Column], whiten) -> np.ndarray:
+    if not cols:
+        return np.zeros((0, 0))
+    x = np.column_stack([whiten(c.values).ravel() for c in cols])
+    q, r = np.linalg.qr(x / np.sqrt(np.mean(x**2, axis=0)))
+    keep = np.abs(np.diag(r)) > 1e-10 * np.abs(np.diag(r)).max()
+    return q[:, keep]
+
+
+class _Group:
+    """Fast GLR of added columns against a fitted group (projection on the orthogonal
+    complement of the current design, whitened)."""
+
+    def __init__(self, target, cols, fit: FitResult, whiten):
+        self.whiten = whiten
+        self.q = _orth(cols, whiten)
+        self.r0 = whiten(fit.residual).ravel()
+        self.rss0 = float(self.r0 @ self.r0)
+        self.n = self.r0.size
+
+    def perp(self, cols: list[Column]) -> np.ndarray:
+        x = np.column_stack([self.whiten(c.values).ravel() for c in cols])
+        return x - self.q @ (self.q.T @ x)
+
+    def glr(self, cols: list[Column]) -> float:
+        xp = self.perp(cols)
+        coef, *_ = np.linalg.lstsq(xp, self.r0, rcond=None)
+        drop = float(self.r0 @ (xp @ coef))
+        rss1 = max(self.rss0 - drop, 1e-300)
+        return float(self.n * math.log(self.rss0 / rss1))
+
+
+def _colored_noise_eval(cand: Candidate, state: State, ar_max: int) -> Evaluation:
+    """LR of AR(p) vs white on the spatially whitened residual, p chosen by BIC."""
+    w = state.eq_noise.spatial(state.eq_fit.residual)
+    m = w.shape[1] - ar_max
+    fits = [ar_fits(c, ar_max) for c in w]
+    best = None
+    for p in range(1, ar_max + 1):
+        lam = 0.0
+        for c in range(w.shape[0]):
+            x = w[c] - w[c].mean()
+            e = prediction_errors(x, fits[c][p - 1])
+            lam += m * math.log(np.mean(x[ar_max:] ** 2) / np.mean(e[ar_max:] ** 2))
+        ev = Evaluation(cand, lam, 2 * p, w.shape[0] * m, 1.0)
+        if best is None or ev.dbic > best.dbic:
+            best = ev
+    best.p_value = min(1.0, ar_max * float(stats.chi2.sf(best.glr, best.dof)))
+    best.candidate.fixed = {"ar_order": best.dof // 2}
+    return best
+
+
+class _IVGroup:
+    """Wald statistic of added columns in the instrumental-variable fit (kinematic group)."""
+
+    def __init__(self, target, cols, whiten):
+        self.target, self.cols, self.whiten = target, cols, whiten
+        self.n = target.size
+
+    def glr(self, cols: list[Column]) -> float:
+        if all(c.instrument is not None and not np.any(c.instrument) for c in cols):
+            return 0.0  # no excitation on the source axis: nothing to test
+        fit = solve_iv(self.target, self.cols + cols, self.whiten)
+        k = len(cols)
+        th, cov = fit.coef[-k:], fit.cov[-k:, -k:]
+        return float(th @ np.linalg.pinv(cov) @ th)
+
+
+def evaluate(data: Data, basis: np.ndarray, state: State, settings: Settings,
+             exclude: set[str]) -> list[Evaluation]:  # fmt: skip
+    """GLR (Wald for the IV group), p-value (with trials factor) and dBIC of every candidate
+    against ``state``."""
+    ctx = Context(data, basis, state.eq_fit.residual, state.eq_noise)
+    groups = {
+        "equation": _Group(None, state.eq_cols, state.eq_fit, state.eq_noise.whiten),
+        "kinematic": _IVGroup(kinematic_target(data), state.kin_cols, state.kin_noise.whiten),
+    }
+    out = []
+    for effect in CATALOGUE:
+        for cand in effect.candidates(ctx):
+            if cand.key in exclude:
+                continue
+            if cand.group == "noise":
+                if state.ar_order == 0:
+                    out.append(_colored_noise_eval(cand, state, settings.ar_max))
+                continue
+            g = groups[cand.group]
+            lam = g.glr(cand.columns)
+            dof = len(cand.columns)
+            p = min(1.0, cand.trials * float(stats.chi2.sf(lam, dof)))
+            out.append(Evaluation(cand, lam, dof, g.n, p))
+    if out:
+        _, padj, _, _ = multipletests([e.p_value for e in out], method="holm")
+        for e, p in zip(out, padj):
+            e.p_holm = float(p)
+    return out
+
+
+# -------------------------------------------------------------------- identifiability
+
+
+def identifiability(data: Data, basis: np.ndarray, state: State, settings: Settings,
+                    n_tests: int) -> list[dict]:  # fmt: skip
+    """Candidates that a plausible-size effect could not reveal with this excitation."""
+    ctx = Context(data, basis, state.eq_fit.residual, state.eq_noise)
+    z2 = float(stats.chi2.isf(settings.alpha / max(n_tests, 1), 1))
+    nominal = {
+        "equation": (state.eq_cols[: state.n_nominal_eq], state.eq_noise.whiten),
+        "kinematic": (state.kin_cols[: state.n_nominal_kin], state.kin_noise.whiten),
+    }
+    cache = {g: np.column_stack([w(c.values).ravel() for c in cols])
+             for g, (cols, w) in nominal.items() if cols}  # fmt: skip
+    out = []
+    for effect in CATALOGUE:
+        if effect.profiled:
+            continue
+        for cand in effect.candidates(ctx):
+            if cand.plausible is None or cand.group not in nominal:
+                continue
+            cols, whiten = nominal[cand.group]
+            if cand.group == "kinematic":
+                rec = _identifiable_iv(cand, cols, kinematic_target(data), whiten, z2)
+            else:
+                rec = _identifiable(cand, cols, cache[cand.group], whiten, z2)
+            if rec is not None:
+                rec["needs"] = effect.needs
+                out.append(rec)
+    return out
+
+
+def _identifiable_iv(cand: Candidate, cols: list[Column], target, whiten, z2) -> dict | None:
+    """Kinematic candidates: minimum detectable value from the IV covariance."""
+    col = cand.columns[0]
+    if not np.any(col.instrument):
+        return {"name": cand.effect, "channel": cand.channel, "reason": "not excited",
+                "aliased_with": None, "min_detectable": None,
+                "plausible": cand.plausible}  # fmt: skip
+    fit = solve_iv(target, cols + [col], whiten)
+    mdp = math.sqrt(z2) * float(fit.std()[-1])
+    if mdp <= cand.plausible:
+        return None
+    return {"name": cand.effect, "channel": cand.channel, "reason": "not excited",
+            "aliased_with": None, "min_detectable": mdp, "plausible": cand.plausible}
+
+
+def _identifiable(cand: Candidate, cols: list[Column], x0: np.ndarray, whiten,
+                  z2: float) -> dict | None:  # fmt: skip
+    xc = whiten(cand.columns[0].values).ravel()
+    for extra in cand.columns[1:]:  # several columns (delay taps, lever arm): use the sum
+        xc = xc + whiten(extra.values).ravel()
+    norm = float(xc @ xc)
+    if norm == 0:
+        return {"name": cand.effect, "channel": cand.channel, "reason": "not excited",
+                "aliased_with": None, "min_detectable": None,
+                "plausible": cand.plausible}  # fmt: skip
+    x = np.column_stack([x0, xc])
+    scale = np.sqrt(np.mean(x**2, axis=0))
+    scale[scale == 0] = 1.0
+    gram_inv = np.linalg.pinv((x / scale).T @ (x / scale))
+    sd = np.sqrt(max(gram_inv[-1, -1], 0.0)) / scale[-1]
+    coef, *_ = np.linalg.lstsq(x0, xc, rcond=None)
+    r2 = 1.0 - float(np.sum((xc - x0 @ coef) ** 2)) / norm
+    mdp = math.sqrt(z2) * sd
+    if mdp <= cand.plausible:
+        return None
+    corr = gram_inv[-1, :-1] / np.sqrt(np.maximum(np.diag(gram_inv)[:-1] * gram_inv[-1, -1],
+                                                  1e-300))  # fmt: skip
+    j = int(np.argmax(np.abs(corr)))
+    aliased = r2 >= cal.ALIASED_R2
+    return {"name": cand.effect, "channel": cand.channel,
+            "reason": "aliased" if aliased else "not excited",
+            "aliased_with": cols[j].name if aliased else None,
+            "correlation": float(corr[j]), "r2_with_nominal": r2,
+            "min_detectable": float(mdp), "plausible": cand.plausible}  # fmt: skip
+
+
+# --------------------------------------------------------------------------- driver
+
+
+def _locate_state(data: Data, basis: np.ndarray, state: State, alpha: float) -> Locations:
+    """Excess in both groups (alpha split between them)."""
+    ew = state.eq_noise.whiten(state.eq_fit.residual)
+    t_eq = data.time[state.eq_noise.order :]
+    dirs = axis_directions(basis, np.linalg.cholesky(state.eq_noise.cov))
+    loc = locate(ew, t_eq, data.fs, alpha / 2, dirs=dirs)
+    kw = state.kin_noise.whiten(state.kin_fit.residual)
+    kin = locate(kw, data.time[1:-1], data.fs, alpha / 2, names=AXES)
+    loc.frequency_hz = sorted(loc.frequency_hz + kin.frequency_hz)
+    loc.time_s = sorted(loc.time_s + kin.time_s)
+    loc.channels = loc.channels + [f"{a} readout" for a in kin.channels]
+    loc.min_p = min(loc.min_p, kin.min_p)
+    return loc
+
+
+def _add(data, basis, state: State, ev: Evaluation, settings: Settings) -> State:
+    cand = ev.candidate
+    if cand.group == "noise":
+        return fit_state(data, basis, state.eq_cols[state.n_nominal_eq :],
+                         state.kin_cols[state.n_nominal_kin :], cand.fixed["ar_order"],
+                         settings)  # fmt: skip
+    eq_x = state.eq_cols[state.n_nominal_eq :]
+    kin_x = state.kin_cols[state.n_nominal_kin :]
+    tag = f"#{len(eq_x) + len(kin_x)}"  # unique names if an effect is selected twice
+    new = [Column(f"{c.name}{tag}", c.values) for c in cand.columns]
+    cand.columns = new
+    if cand.group == "equation":
+        eq_x = eq_x + new
+    else:
+        kin_x = kin_x + new
+    return fit_state(data, basis, eq_x, kin_x, state.ar_order, settings)
+
+
+def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
+    """Fit, locate, explain (greedy, calibrated), re-identify; see the module docstring."""
+    settings = Settings() if settings is None else settings
+    basis = null_basis(data.geometry)
+    state = before = fit_state(data, basis, [], [], 0, settings)
+    selected, steps = [], []
+    exclude: set[str] = set()
+    for _ in range(settings.max_effects):
+        evals = evaluate(data, basis, state, settings, exclude)
+        steps.append(evals)
+        sig = [e for e in evals if e.p_holm < settings.alpha and e.dbic > 0]
+        if not sig:
+            break
+        best = max(sig, key=lambda e: e.dbic)
+        alts = [e for e in sig if e is not best and best.dbic - e.dbic < cal.AMBIGUOUS_DBIC]
+        if best.candidate.effect not in ("glitch",):
+            exclude.add(best.candidate.key)
+        state = _add(data, basis, state, best, settings)
+        selected.append((best, alts))
+    n_tests = len(steps[0]) if steps else 1
+    return Diagnosis(
+        data=data, basis=basis, before=before, after=state, selected=selected,
+        locations=_locate_state(data, basis, before, settings.locate_alpha),
+        locations_after=_locate_state(data, basis, state, settings.locate_alpha),
+        not_identifiable=identifiability(data, basis, before, settings, n_tests),
+        settings=settings, steps=steps,
+    )  # fmt: skip
+
+
+# ------------------------------------------------------------------------ summaries
+
+
+def whiteness_p(state: State) -> float:
+    """Ljung-Box (statsmodels) on each whitened equation channel; Bonferroni over channels."""
+    w = state.eq_noise.whiten(state.eq_fit.residual)
+    ps = [float(acorr_ljungbox(c, lags=[cal.LJUNG_BOX_LAGS])["lb_pvalue"].iloc[0]) for c in w]
+    return min(1.0, len(ps) * min(ps))
+
+
+def bic(state: State) -> float:
+    """BIC of both groups: Gaussian likelihoods with the noise parameters at their MLE
+    (equation: 2x2 covariance, or AR innovation variances; kinematic: per-axis level of
+    the smoothed spectrum)."""
+    noise = state.eq_noise
+    m = state.eq_fit.residual.shape[1] - noise.order
+    logdet_l = float(np.linalg.slogdet(np.linalg.cholesky(noise.cov))[1])
+    if state.ar_order:
+        e = noise.whiten(state.eq_fit.residual)
+        var = [float(np.mean(c**2)) * v for c, v in zip(e, noise.ar_var)]
+        ll = sum(-0.5 * m * (math.log(v) + math.log(2 * math.pi) + 1) for v in var)
+    else:
+        w = noise.spatial(state.eq_fit.residual)[:, noise.order :]
+        det = float(np.linalg.slogdet(w @ w.T / m)[1])
+        ll = -0.5 * m * (det + w.shape[0] * (math.log(2 * math.pi) + 1))
+    ll -= m * logdet_l
+    kw = state.kin_noise.whiten(state.kin_fit.residual)
+    ll += float(sum(-0.5 * kw.shape[1] * math.log(np.mean(c**2)) for c in kw))
+    p = len(state.eq_cols) + len(state.kin_cols) + 2 * state.ar_order + 3
+    return float(-2 * ll + p * math.log(2 * m + kw.size))
+
+
+def summary(data: Data, basis: np.ndarray, state: State) -> dict:
+    """residual_rms [m s^-2], bic, whiteness_p, output-error and kinematic RMS [m]."""
+    eq_fitted = equation_target(data, basis) - state.eq_fit.residual
+    oe = output_error(data, basis, eq_fitted)
+    return {
+        "residual_rms": float(np.sqrt(np.mean(state.eq_fit.residual**2))),
+        "bic": bic(state),
+        "whiteness_p": whiteness_p(state),
+        "output_error_rms": float(np.sqrt(np.mean(oe**2))),
+        "kinematic_rms": float(np.sqrt(np.mean(state.kin_fit.residual**2))),
+        "noise": state.eq_noise.describe(),
+    }
+
+
+def stiffness(state: State) -> dict:
+    f = state.eq_fit
+    return {k: {"value": f.value(k), "sigma": f.sigma(k)}
+            for k in ("k1xx", "k2xx", "k1yy", "k2yy")}  # fmt: skip
