@@ -115,8 +115,8 @@ def test_mw5_contains_the_16_points_published_in_platemo():
                      [0.5970, 0.8023], [0.6359, 0.7719], [0.6686, 0.7436], [0.6969, 0.7174]])
     published = np.vstack([half, half[:, ::-1]])
     exact = mw.mw5_isolated_points()
-    # 4 decimals; three of PlatEMO's values sit 1 unit of the last digit above the closed
-    # form (e.g. 0.8739 for 0.873843), hence 1.5e-4 per coordinate
+    # 4 decimals; four of PlatEMO's values sit 1 unit of the last digit above the rounded
+    # closed form (e.g. 0.8739 for 0.873843), hence 1.5e-4 per coordinate
     np.testing.assert_allclose(exact[np.argsort(exact[:, 0])],
                                published[np.argsort(published[:, 0])], atol=1.5e-4)
     assert _max_dist(exact, pareto_front("mw5", 2, N)) < 1e-9
