@@ -218,7 +218,9 @@ def run_design(
 
     One sample n: measure (+N_m), control (FRBF-PID or PID on x, PID on y), apply the
     commanded force + N_ele + f_D - f_B (f_B^s rotated into frames a and b), measure the
-    acceleration at t_n (+N_acc), form the regression of Eqs. 10-15, update the RLS, and
+    acceleration at t_n (+N_acc; ``k r_n`` plus the force held over [t_n, t_{n+1}), or
+    its interval average when a delayed command switches inside the step), form the
+    regression of Eqs. 10-15, update the RLS, and
     advance the state exactly to t_{n+1}.  On divergence (|r| > bound, non-finite force or
     estimate) the design stops and its remaining samples hold their last values.
 
@@ -328,13 +330,20 @@ def run_design(
                 applied = early[a] + noise[8 + a, n] + par[P_FD + a] - fb[a] + extra[a]
             else:
                 applied = u[a] + noise[8 + a, n] + par[P_FD + a] - fb[a]
-            acc[a] = par[P_K + a] * pos[a] + applied + noise[4 + a, n]  # r'' at t_n + N_acc
+            applied2 = applied
+            if pert and split_at[a] > 0.0:
+                # the command switches inside the step: the accelerometer reports the
+                # interval average, as it does (trivially) for a force held over the step
+                applied2 = late[a] + noise[8 + a, n] + par[P_FD + a] - fb[a] + extra[a]
+                mean = (split_at[a] * applied + (dt - split_at[a]) * applied2) / dt
+                acc[a] = par[P_K + a] * pos[a] + mean + noise[4 + a, n]
+            else:
+                acc[a] = par[P_K + a] * pos[a] + applied + noise[4 + a, n]  # r'' + N_acc
             # Eqs. 10-15: y = K.(r'' - f_e) with measured r'' and commanded f_e
             y_reg += par[P_KC + a] * (acc[a] - u[a])
             psi[a] = par[P_KC + a] * meas[a] / psi_scale[a]
             if pert and split_at[a] > 0.0:
                 # delayed actuation switches command inside the step: two exact ZOH pieces
-                applied2 = late[a] + noise[8 + a, n] + par[P_FD + a] - fb[a] + extra[a]
                 _zoh_advance(a, pos, vel, par[P_K + a], coef1, applied)
                 _zoh_advance(a, pos, vel, par[P_K + a], coef2, applied2)
             else:

@@ -175,7 +175,9 @@ class Perturbations:
 
     * ``actuation_gain`` (4, N): applied force ``(1 + g) * command`` [1].
     * ``actuation_delay`` (4,): the applied force is the command delayed by ``tau`` [s]
-      (>= 0); fractional delays are exact (the step is split, see ``_delay_setup``).
+      (>= 0); fractional delays are exact (the step is split, see ``_delay_setup``), and
+      the acceleration channel then reports the force's average over the step (for a
+      force held over the step, as without delay, the average is that force).
     * ``actuation_step`` (4,): quantisation step ``q`` [m s^-2] of the applied command,
       ``q * floor(u / q + 1/2)``; 0 = none.  Order: delay, quantise, gain.
     * ``stiffness_change`` (4, N): extra diagonal stiffness ``dk_n`` [s^-2], force
