@@ -329,7 +329,10 @@ class MGSAEA(Algorithm):
         return model
 
     def _predict(self, model: Surrogate, X: np.ndarray) -> np.ndarray:
-        return np.asarray(model.predict(X)[0], dtype=float)
+        # Only the mean is used (as PlatEMO's predictor); predict_mean skips the std.
+        mean_only = getattr(model, "predict_mean", None)
+        mean = mean_only(X) if mean_only is not None else model.predict(X)[0]
+        return np.asarray(mean, dtype=float)
 
     def _fitness(self, plan: ModelPlan, P: np.ndarray) -> np.ndarray:
         F, cv = plan.split(P, self.problem.n_obj)
