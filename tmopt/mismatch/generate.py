@@ -1,0 +1,783 @@
+"""Recordings with concealed effects, from the closed-loop simulator, plus a separate truth.
+
+``python -m tmopt.mismatch.generate --effect NAME --magnitude M --channel x1 --seed S
+--out DIR`` writes ``DIR/<name>.h5`` (a recording in the format of
+``docs/recording-format.md``) and ``DIR/<name>.truth.json`` (what was concealed; format in
+``docs/mismatch-generator.md``).  The recording carries nothing about its making: its
+name is a hash, its description is the user's, and it has the same channels whether an
+effect is present or not.  Python: :func:`generate_recording`.
+
+Settings the diagnosis tool may not have seen: excitation (:func:`excitation`: the
+paper's Fig. 6 motion, multi-sines, chirps, smoothed steps, none), noise scale, duration,
+sample rate, controller, stiffness and bias values.  Effect physics: ``injection.py``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import math
+import sys
+from collections.abc import Iterable, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tmopt.mismatch.injection import AXES, EFFECT_NAMES, EFFECTS, Builder, Injection
+from tmopt.mismatch.recording import (
+    ROTATION_CHANNELS,
+    Recording,
+    atomic_write,
+    recording_from_simulation,
+    validate,
+    write_recording,
+)
+from tmopt.physics.control import ControllerSettings, closed_loop_poles
+from tmopt.physics.geometry import Geometry
+from tmopt.physics.simulator import SimulationConfig, simulate
+
+__all__ = ["Settings", "GenerationError", "generate_recording", "write_generated",
+           "excitation", "simulation_config", "MAGNITUDES", "calibrated_injection",
+           "detectability", "calibration_table", "TRUTH_FORMAT", "main"]  # fmt: skip
+
+TRUTH_FORMAT = "tmopt-truth"
+TRUTH_VERSION = 1
+#: Table 1 per-sample noise at the paper's 10 Hz (ASD = sigma / sqrt(fs / 2)).
+TABLE1 = {"sigma_m1": 1e-11, "sigma_m2": 1e-8, "sigma_acc": 1e-12, "sigma_ele": 1e-12}
+PAPER_RATE = 10.0
+F_MAX = 1e-7  # actuator limit [m s^-2] (SimulationConfig.f_max)
+REF_LIMIT = 0.1 * 4e-3  # alpha2 D of Eq. 20: largest reference displacement [m]
+
+
+class GenerationError(ValueError):
+    """A recording could not be generated (e.g. the effect made the loop diverge)."""
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Run settings; defaults are the paper's (Table 1, Sec. 4.1, Fig. 6 motion).
+
+    ``stiffness`` = (k1xx, k2xx, k1yy, k2yy) [s^-2], ``bias`` = (fD1x, fD2x, fD1y, fD2y)
+    [m s^-2].  ``noise_scale`` multiplies every Table 1 noise and the f_B noise;
+    at other sample rates the per-sample sigmas scale with sqrt(fs / 10 Hz) so the noise
+    ASDs stay those of Table 1.  ``witnesses``: write the six ``sc_omega*`` channels in
+    every recording (zeros when the spacecraft does not rotate), so their presence
+    reveals nothing.
+    """
+
+    duration: float = 1200.0
+    sample_rate: float = 10.0
+    excitation: str = "paper"
+    noise_scale: float = 1.0
+    controller: str = "frbf_pid"
+    stiffness: tuple[float, float, float, float] = (1e-7, 1e-7, 1e-7, 1e-7)
+    bias: tuple[float, float, float, float] = (1e-10, 1e-10, 1e-10, 1e-10)
+    witnesses: bool = True
+    description: str = ""
+
+    def __post_init__(self) -> None:
+        for name in ("duration", "sample_rate"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a finite number in (0, inf); got {v!r}")
+        if self.duration * self.sample_rate < 64:
+            raise ValueError(f"duration * sample_rate must be >= 64 samples; got "
+                             f"{self.duration * self.sample_rate:g}")  # fmt: skip
+        if not (math.isfinite(self.noise_scale) and 0 <= self.noise_scale <= 1e3):
+            raise ValueError(f"noise_scale must be in [0, 1000]; got {self.noise_scale!r}")
+        for name in ("stiffness", "bias"):
+            v = tuple(getattr(self, name))
+            if len(v) != 4 or not all(math.isfinite(x) for x in v):
+                raise ValueError(f"{name} must be 4 finite numbers {list(AXES)}; got {v!r}")
+
+
+# --------------------------------------------------------------------------- excitation
+
+
+def excitation(spec: str, duration: float, fs: float) -> tuple[np.ndarray, np.ndarray, dict]:
+    """References (ref1, ref2) of the sensitive axes, each (N,), from a spec string.
+
+    * ``paper`` -- Fig. 6: ``5e-5 sin(2 pi t/300)``, ``3e-5 sin(2 pi t/500)``;
+    * ``multisine:A@P[@phase],...;A@P,...`` -- Eq. 17 per TM (``;`` separates TM1 from
+      TM2): amplitude A [m], period P [s], phase [rad]; ``x(0) = 0`` as in Eq. 17;
+    * ``chirp:A,f0,f1;A,f0,f1`` -- ``A sin(2 pi (f0 t + (f1 - f0) t^2 / (2 T)))`` [Hz];
+    * ``steps:A,P[,ramp];A,P[,ramp]`` -- levels +A, -A, +A, ... each held P s, reached by
+      raised-cosine ramps of ``ramp`` s (default: the shortest ramp whose peak
+      acceleration ``2 A pi^2 / (2 ramp^2)`` stays at 0.5 F_max, Eq. 20's alpha1);
+    * ``none`` -- no motion (the loop holds both TMs at zero).
+
+    Raises ValueError naming the spec when a reference leaves |x| <= 0.4 mm (alpha2 D,
+    Eq. 20), needs more than F_max = 1e-7 m s^-2, or has a tone at/above Nyquist.
+    """
+    t = np.arange(int(round(duration * fs))) / fs
+    kind, _, body = spec.partition(":")
+    kind = kind.strip().lower()
+    makers = {"paper": _paper, "multisine": _multisine, "chirp": _chirp, "steps": _steps,
+              "none": _none}  # fmt: skip
+    if kind not in makers:
+        raise ValueError(f"excitation {spec!r}: kind must be one of {sorted(makers)}")
+    try:
+        refs, info = makers[kind](body, t, fs)
+    except (ValueError, IndexError) as exc:
+        raise ValueError(f"excitation {spec!r}: {exc}") from None
+    for k, r in enumerate(refs, start=1):
+        if np.abs(r).max() > REF_LIMIT:
+            raise ValueError(f"excitation {spec!r}: TM{k} reference reaches "
+                             f"{np.abs(r).max():.3g} m > {REF_LIMIT:g} m (alpha2 D, Eq. 20)")
+    return refs[0], refs[1], {"spec": spec, "kind": kind, **info}
+
+
+def _tm_parts(body: str, n_fields: tuple[int, ...]) -> list[list[list[float]]]:
+    tms = body.split(";")
+    if len(tms) != 2:
+        raise ValueError("give both test masses, separated by ';'")
+    out = []
+    for tm in tms:
+        comps = []
+        for comp in tm.split(","):
+            vals = [float(v) for v in comp.replace("@", " ").split()]
+            if len(vals) not in n_fields:
+                raise ValueError(f"component {comp!r} needs {' or '.join(map(str, n_fields))} "
+                                 "numbers")  # fmt: skip
+            comps.append(vals)
+        out.append(comps)
+    return out
+
+
+def _sines(comps: list[list[float]], t: np.ndarray, fs: float) -> tuple[np.ndarray, float]:
+    x = np.zeros_like(t)
+    acc = 0.0
+    for comp in comps:
+        a, period, phase = comp[0], comp[1], comp[2] if len(comp) > 2 else 0.0
+        if a < 0 or period <= 0:
+            raise ValueError(f"amplitude must be >= 0 and period > 0; got {comp}")
+        w = 2 * math.pi / period
+        if w >= math.pi * fs:
+            raise ValueError(f"period {period} s is at/above Nyquist for {fs} Hz")
+        x += a * (np.sin(w * t + phase) - math.sin(phase))  # Eq. 17 with x(0) = 0
+        acc += a * w * w
+    return x, acc
+
+
+def _paper(body: str, t: np.ndarray, fs: float) -> tuple[list[np.ndarray], dict]:
+    if body:
+        raise ValueError("'paper' takes no parameters")
+    return _multisine("5e-5@300;3e-5@500", t, fs)
+
+
+def _multisine(body: str, t: np.ndarray, fs: float) -> tuple[list[np.ndarray], dict]:
+    refs, info = [], {}
+    for k, comps in enumerate(_tm_parts(body, (2, 3)), start=1):
+        x, acc = _sines(comps, t, fs)
+        _check_accel(acc, k)
+        refs.append(x)
+        info[f"tm{k}"] = [{"amplitude_m": c[0], "period_s": c[1],
+                           "phase_rad": c[2] if len(c) > 2 else 0.0} for c in comps]  # fmt: skip
+    return refs, info
+
+
+def _check_accel(acc: float, k: int) -> None:
+    if acc > F_MAX:
+        raise ValueError(f"TM{k} needs sum A w^2 = {acc:.3g} m s^-2 > F_max = {F_MAX:g}")
+
+
+def _chirp(body: str, t: np.ndarray, fs: float) -> tuple[list[np.ndarray], dict]:
+    refs, info = [], {}
+    span = t[-1] + 1 / fs
+    for k, comps in enumerate(_tm_parts(body, (3,)), start=1):
+        if len(comps) != 1:
+            raise ValueError("one chirp per test mass")
+        a, f0, f1 = comps[0]
+        if a < 0 or f0 < 0 or f1 < 0 or max(f0, f1) >= fs / 2:
+            raise ValueError(f"chirp needs A >= 0 and 0 <= f0, f1 < {fs / 2} Hz; got {comps[0]}")
+        _check_accel(a * (2 * math.pi * max(f0, f1)) ** 2, k)
+        refs.append(a * np.sin(2 * math.pi * (f0 * t + (f1 - f0) * t**2 / (2 * span))))
+        info[f"tm{k}"] = {"amplitude_m": a, "f0_hz": f0, "f1_hz": f1}
+    return refs, info
+
+
+def _steps(body: str, t: np.ndarray, fs: float) -> tuple[list[np.ndarray], dict]:
+    refs, info = [], {}
+    for k, comps in enumerate(_tm_parts(body, (2, 3)), start=1):
+        if len(comps) != 1:
+            raise ValueError("one step train per test mass")
+        a, hold = comps[0][:2]
+        ramp = comps[0][2] if len(comps[0]) > 2 else math.pi * math.sqrt(2 * a / F_MAX)
+        if a < 0 or hold <= 0 or ramp <= 0 or ramp > hold:
+            raise ValueError(f"steps need A >= 0 and 0 < ramp <= hold; got {comps[0]}")
+        _check_accel(a * math.pi**2 / ramp**2, k)  # peak of a raised-cosine of height 2A
+        refs.append(_step_train(t, a, hold, ramp))
+        info[f"tm{k}"] = {"amplitude_m": a, "hold_s": hold, "ramp_s": ramp}
+    return refs, info
+
+
+def _step_train(t: np.ndarray, a: float, hold: float, ramp: float) -> np.ndarray:
+    """0 -> +A (first ramp, height A), then -A, +A, ... each switch a raised-cosine ramp."""
+    x = np.zeros_like(t)
+    level, target, start = 0.0, a, 0.0
+    while start <= t[-1]:  # switches at 0, hold, 2 hold, ...
+        s = np.clip((t - start) / ramp, 0.0, 1.0)
+        x += (target - level) * 0.5 * (1 - np.cos(np.pi * s))
+        level, target, start = target, -target, start + hold
+    return x
+
+
+def _none(body: str, t: np.ndarray, fs: float) -> tuple[list[np.ndarray], dict]:
+    if body:
+        raise ValueError("'none' takes no parameters")
+    return [np.zeros_like(t), np.zeros_like(t)], {}
+
+
+# --------------------------------------------------------------------------- simulation
+
+
+def simulation_config(settings: Settings, geometry: Geometry) -> SimulationConfig:
+    """The simulator's configuration for ``settings`` and the *true* geometry.
+
+    Noise: Table 1 sigmas (per sample at 10 Hz) times ``noise_scale`` times
+    ``sqrt(fs / 10 Hz)`` (same ASD at any rate).  Control: the per-sample incremental-PID
+    gains are rescaled to keep the continuous gains P = Kp, I = Ki/dt, D = Kd dt of the
+    paper's 10 Hz design (docs/decisions.md); a rate whose loop is unstable is refused.
+    """
+    fs = float(settings.sample_rate)
+    scale = settings.noise_scale * math.sqrt(fs / PAPER_RATE)
+    base = SimulationConfig()
+    ctl = ControllerSettings(base_gains=_rescale(base.control.base_gains, fs),
+                             y_gains=_rescale(base.control.y_gains, fs))  # fmt: skip
+    for gains in (ctl.base_gains, ctl.y_gains):
+        if np.abs(closed_loop_poles(gains, 1 / fs)).max() >= 1:
+            raise ValueError(f"sample_rate {fs} Hz: the paper's controller (continuous gains "
+                             "kept) is unstable at this rate; use a higher sample_rate")
+    return SimulationConfig(
+        sample_rate=fs, duration=float(settings.duration), controller=settings.controller,
+        stiffness_1=(settings.stiffness[0], settings.stiffness[2]),
+        stiffness_2=(settings.stiffness[1], settings.stiffness[3]),
+        bias_1=(settings.bias[0], settings.bias[2]), bias_2=(settings.bias[1], settings.bias[3]),
+        **{k: v * scale for k, v in TABLE1.items()}, fb_sigma=base.fb_sigma * scale,
+        geometry=geometry, control=ctl, steady_after=min(300.0, float(settings.duration)),
+    )  # fmt: skip
+
+
+def _rescale(gains: tuple[float, float, float], fs: float) -> tuple[float, float, float]:
+    r = PAPER_RATE / fs  # dt / dt_paper
+    return (gains[0], gains[1] * r, gains[2] / r)
+
+
+def _injections(effects: Iterable[Any]) -> list[Injection]:
+    out = []
+    for e in effects:
+        if isinstance(e, Injection):
+            inj = e
+        elif isinstance(e, dict):
+            inj = Injection(**e)
+        elif isinstance(e, (tuple, list)):
+            inj = Injection(*e)
+        else:
+            raise ValueError(f"effects must be Injection, dict or (name, magnitude[, channel]); "
+                             f"got {e!r}")  # fmt: skip
+        if inj.name not in EFFECTS:
+            raise ValueError(f"unknown effect {inj.name!r}; choose from {list(EFFECT_NAMES)}")
+        out.append(inj)
+    keys = [(i.name, i.channel or EFFECTS[i.name].default_channel) for i in out]
+    dup = sorted({k for k in keys if keys.count(k) > 1})
+    if dup:
+        raise ValueError(f"the same effect twice on one channel: {dup}")
+    return out
+
+
+def generate_recording(
+    effects: Sequence[Any] = (), seed: int = 0, **settings: Any
+) -> tuple[Recording, dict[str, Any]]:
+    """Simulate one recording with the given concealed effects -> (recording, truth).
+
+    ``effects``: :class:`Injection` objects, dicts of its fields, or (name, magnitude[,
+    channel]) tuples; empty = a clean control.  ``settings``: fields of :class:`Settings`.
+    The truth dict is the truth file's content (docs/mismatch-generator.md) without the
+    file names.  Raises :class:`GenerationError` when the loop diverges.
+    """
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be an integer in [0, inf); got {seed!r}")
+    st = Settings(**settings)
+    injections = _injections(effects)
+    nominal = Geometry()
+    n = int(round(st.duration * st.sample_rate))
+    builder = Builder(n, st.sample_rate, nominal, int(seed))
+    truths = [_effect_truth(inj, EFFECTS[inj.name].inject(inj, builder)) for inj in injections]
+    ref1, ref2, exc = excitation(st.excitation, st.duration, st.sample_rate)
+    cfg = simulation_config(st, builder.geometry)
+    res = simulate(ref1[None], ref2[None], cfg, int(seed), builder.perturbations())
+    if res.diverged[0]:
+        raise GenerationError(f"the closed loop diverged ({res.reason[0]}) with effects "
+                              f"{[(i.name, i.magnitude) for i in injections]}: reduce the "
+                              "magnitude")  # fmt: skip
+    rec = recording_from_simulation(res, 0, description=st.description, geometry=nominal)
+    rec = _finish_channels(rec, builder, st)
+    truth = _truth(st, int(seed), truths, exc, cfg, nominal, builder.geometry)
+    return rec, truth
+
+
+def _finish_channels(rec: Recording, builder: Builder, st: Settings) -> Recording:
+    """Sensor-side effects on recorded channels, then the always-present witnesses."""
+    chans = dict(rec.channels)
+    for step in builder.post:
+        step(chans)
+    if st.witnesses and ROTATION_CHANNELS[0] not in chans:
+        chans.update({c: np.zeros(rec.n_samples) for c in ROTATION_CHANNELS})
+    return validate(Recording(chans, dict(rec.attrs)))
+
+
+def _effect_truth(inj: Injection, params: dict[str, Any]) -> dict[str, Any]:
+    model = EFFECTS[inj.name]
+    channel = inj.channel or model.default_channel
+    return {
+        "name": inj.name, "channel": channel,
+        "tool_channel": params.pop("tool_channel", channel),
+        "parameter": model.parameter, "magnitude": inj.magnitude, "unit": model.unit,
+        "level": _level(inj.name, inj.magnitude), "parameters": params,
+        "options": dict(inj.options),
+    }  # fmt: skip
+
+
+def _level(name: str, magnitude: float) -> str | None:
+    """'near' / 'large' when the magnitude is the calibrated one (MAGNITUDES), else None."""
+    cal = MAGNITUDES.get(name, {})
+    for level in ("near", "large"):
+        if cal.get(level) is not None and math.isclose(abs(magnitude), cal[level], rel_tol=1e-9):
+            return level
+    return None
+
+
+def _truth(st: Settings, seed: int, effects: list[dict], exc: dict, cfg: SimulationConfig,
+           nominal: Geometry, true_geo: Geometry) -> dict[str, Any]:  # fmt: skip
+    k, fd = st.stiffness, st.bias
+    coeff = nominal.coefficients()
+    return {
+        "format": TRUTH_FORMAT, "format_version": TRUTH_VERSION, "seed": seed,
+        "clean": not effects, "effects": effects,
+        "settings": {**asdict(st), "excitation": exc},
+        "nominal": {
+            "k1xx": k[0], "k2xx": k[1], "k1yy": k[2], "k2yy": k[3],
+            "fD1x": fd[0], "fD2x": fd[1], "fD1y": fd[2], "fD2y": fd[3],
+            "R": float(coeff @ np.asarray(fd)),
+            "fb_bias_s": list(cfg.fb_bias), "fb_sigma": cfg.fb_sigma,
+            "sigma_m1": cfg.sigma_m1, "sigma_m2": cfg.sigma_m2, "sigma_acc": cfg.sigma_acc,
+            "sigma_ele": cfg.sigma_ele, "phi1": nominal.phi1, "phi2": nominal.phi2,
+            "alpha": nominal.alpha, "separation": nominal.separation,
+            "r12_s": nominal.r12_s.tolist(), "K": coeff.tolist(),
+            "controller": cfg.controller, "base_gains": list(cfg.control.base_gains),
+            "y_gains": list(cfg.control.y_gains), "f_max": cfg.f_max,
+        },
+        "true_geometry": {"phi1": true_geo.phi1, "phi2": true_geo.phi2,
+                          "alpha": true_geo.alpha},
+    }  # fmt: skip
+
+
+def recording_name(truth: dict[str, Any]) -> str:
+    """Opaque, deterministic name: a hash of seed, settings and effects (reveals nothing)."""
+    key = json.dumps([truth["seed"], truth["settings"], truth["effects"]], sort_keys=True,
+                     default=str)  # fmt: skip
+    return "rec-" + hashlib.sha256(key.encode()).hexdigest()[:12]
+
+
+def write_generated(rec: Recording, truth: dict[str, Any], out: str | Path,
+                    name: str | None = None, fmt: str = "h5",
+                    truth_dir: str | Path | None = None) -> tuple[Path, Path]:  # fmt: skip
+    """Write ``<out>/<name>.<fmt>`` and ``<truth_dir or out>/<name>.truth.json``.
+
+    The truth file names the recording and its SHA-256, so a benchmark can check that a
+    truth belongs to the file it scores.
+    """
+    name = recording_name(truth) if name is None else name
+    if not name or "/" in name or name.startswith("."):
+        raise ValueError(f"name must be a plain file stem; got {name!r}")
+    path = write_recording(rec, Path(out) / f"{name}.{fmt}", fmt=fmt)  # type: ignore[arg-type]
+    full = {**truth, "recording": path.name,
+            "recording_sha256": hashlib.sha256(path.read_bytes()).hexdigest()}  # fmt: skip
+    tpath = Path(truth_dir if truth_dir is not None else out) / f"{name}.truth.json"
+    tpath.parent.mkdir(parents=True, exist_ok=True)
+    text = json.dumps(full, indent=2, sort_keys=True, default=_json) + "\n"
+    atomic_write(tpath, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+    return path, tpath
+
+
+def _json(value: Any) -> Any:
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    raise TypeError(f"not JSON-serialisable: {value!r}")
+
+
+# --------------------------------------------------------------------------- magnitudes
+
+#: Calibrated magnitudes per effect (docs/mismatch-generator.md, "Magnitudes"): ``near``
+#: gives a detectability SNR of about 5, ``large`` about 50, for the default settings
+#: (paper excitation, 1200 s, 10 Hz, Table 1 noise; seed 101), on the given channel with
+#: the given options; output of :func:`calibration_table` (``--calibrate``).
+_CALIBRATED = (
+    # effect, channel, options, near, its SNR, large, its SNR, family of the largest SNR
+    ("actuation_gain", "x1", {}, 6.8e-06, 4.9, 7.1e-05, 51.4,
+     "eq"),
+    ("actuation_delay", "x1", {}, 5.3e-06, 5.0, 5.1e-05, 47.9,
+     "eq"),
+    ("stiffness_cross_coupling", "y1", {"source": "x1"}, 2.9e-09, 4.9, 3.1e-08, 51.8,
+     "eq"),
+    ("cubic_stiffness", "x1", {}, 4.3, 4.9, 45.0, 51.8,
+     "eq"),
+    ("stiffness_drift", "x1", {}, 7.7e-12, 4.8, 8.1e-11, 50.4,
+     "eq"),
+    ("bias_drift", "x1", {}, 2.8e-16, 5.0, 2.7e-15, 48.4,
+     "eq"),
+    ("rotation_coupling", "omega_z", {"profile": "slew"}, 8.6e-11, 5.0, 8.3e-10, 48.1,
+     "eq"),
+    ("sensing_cross_talk", "y1", {"source": "x1", "sensor": "disp"}, 0.0011, 4.9, 0.012, 53.1,
+     "kin_y1"),
+    ("readout_scale", "x1", {"sensor": "disp"}, 3.9e-06, 5.0, 3.7e-05, 47.8,
+     "kin_x1"),
+    ("geometry_error", "alpha", {}, 0.00063, 5.0, 0.0061, 48.5,
+     "eq"),
+    ("glitch", "x1", {"beta": 5.0, "shape": "shapelet"}, 1.5e-11, 5.0, 1.5e-10, 50.5,
+     "eq"),
+    ("colored_noise", "x1", {"exponent": 1.0}, 3.7e-12, 5.0, 1.2e-11, 53.1,
+     "eq"),
+    ("actuation_quantisation", "x1", {}, 2.7e-12, 5.2, 8.4e-12, 49.9,
+     "eq"),
+)
+_KEYS = ("channel", "options", "near", "snr_near", "large", "snr_large", "family")
+MAGNITUDES: dict[str, dict[str, Any]] = {row[0]: dict(zip(_KEYS, row[1:]))
+                                         for row in _CALIBRATED}  # fmt: skip
+
+
+def calibrated_injection(name: str, level: str, sign: float = 1.0) -> Injection:
+    """The calibrated ``near``/``large`` injection of an effect (its channel and options)."""
+    if name not in MAGNITUDES:
+        raise ValueError(f"unknown effect {name!r}; choose from {list(EFFECT_NAMES)}")
+    if level not in ("near", "large"):
+        raise ValueError(f"level must be 'near' or 'large'; got {level!r}")
+    cal = MAGNITUDES[name]
+    signed = cal[level] * (1.0 if sign >= 0 or not EFFECTS[name].signed else -1.0)
+    return Injection(name, signed, cal["channel"], options=dict(cal["options"]))
+
+
+# --------------------------------------------------------------------------- detectability
+#
+# How visible is an effect?  Three families of residuals a diagnosis can form from a
+# recording alone (nominal model, no truth): the two f_B-free combinations of the four
+# axes (Eq. 10 with K, and the orthogonal one that keeps the Euler term), each after a
+# least-squares fit of the nominal stiffnesses and bias; and the per-axis kinematic
+# residual  x_{n+1} - 2 x_n + x_{n-1} - h^2 (acc_n + acc_{n-1}) / 2  (exact for a ZOH
+# force, no free parameter).  The effect's signature in a family is the residual of the
+# effect recording minus that of the clean one with the same seed (same noise draws);
+# the noise PSD comes from two clean recordings of different seeds.  SNR: the matched
+# filter  rho^2 = 4 sum_k |X_k|^2 / (N fs S_k)  for deterministic signatures (Wainstein
+# & Zubakov's optimal-filter SNR, discrete form), the excess power  max over octave
+# bands of  sum_k w_k / sqrt(n_k),  w_k = 2 |X_k|^2 / (N fs S_k),  for noise-like
+# effects (radiometer equation).  Detectability = the largest over families.
+
+NOISE_LIKE = ("colored_noise", "actuation_quantisation")
+
+
+def residual_families(rec: Recording) -> dict[str, np.ndarray]:
+    """The residual families above: ``eq`` (2, N) and ``kin_<axis>`` (1, N - 2).
+
+    ``eq``: the two orthonormal f_B-free combinations (K of Eq. 11 and the one orthogonal
+    to it), fitted *jointly* with the nominal model of Eqs. 10-15 -- one stiffness per
+    axis shared by both, one intercept (f_D combination) each.  Their noises (N_acc +
+    N_ele, iid over axes) are then independent with equal variance.
+    """
+    geo = rec.geometry()
+    x = np.array([rec[a] for a in AXES])
+    acc = np.array([rec[f"acc_{a}"] for a in AXES])
+    d = acc - np.array([rec[f"force_{a}"] for a in AXES])
+    wa, wb = geo.w_sa[:2, :2], geo.w_sb[:2, :2]
+    proj = np.array([wa[0], wb[0], wa[1], wb[1]])  # f_B^s seen by each axis (Eqs. 6-7)
+    k = geo.coefficients() / np.linalg.norm(geo.coefficients())
+    null = np.linalg.svd(proj.T)[2][2:]  # (2, 4): orthonormal combinations blind to f_B
+    ell = null[np.argmax(np.linalg.norm(null - np.outer(null @ k, k), axis=1))]
+    ell = ell - (ell @ k) * k
+    basis = np.array([k, ell / np.linalg.norm(ell)])  # (2, 4)
+    n = x.shape[1]
+    cols = np.zeros((2 * n, 6))
+    for a in range(4):  # stiffness of axis a, seen through both combinations
+        cols[:n, a], cols[n:, a] = basis[0, a] * x[a], basis[1, a] * x[a]
+    cols[:n, 4], cols[n:, 5] = 1.0, 1.0
+    y = (basis @ d).ravel()
+    fam = {"eq": (y - cols @ np.linalg.lstsq(cols, y, rcond=None)[0]).reshape(2, n)}
+    h2 = rec.dt**2
+    for a, name in enumerate(AXES):
+        fam[f"kin_{name}"] = (x[a, 2:] - 2 * x[a, 1:-1] + x[a, :-2]
+                              - 0.5 * h2 * (acc[a, 1:-1] + acc[a, :-2]))[None]  # fmt: skip
+    return fam
+
+
+def _psd_on_grid(noise: np.ndarray, fs: float) -> np.ndarray:
+    """Welch PSD of each row (8 Hann segments, 50 % overlap) on the rfft grid of its length."""
+    from scipy.signal import welch
+
+    n = noise.shape[-1]
+    f_w, s_w = welch(noise, fs, nperseg=max(16, n // 8), axis=-1)
+    f = np.fft.rfftfreq(n, 1 / fs)
+    return np.array([np.interp(f, f_w[1:], row[1:]) for row in np.atleast_2d(s_w)])
+
+
+def snr(signature: np.ndarray, noise_psd: np.ndarray, fs: float, noise_like: bool) -> float:
+    """Matched-filter or excess-power SNR of ``signature`` (rows with independent noises
+    of PSD ``noise_psd``, one row each), see the section comment."""
+    n = signature.shape[-1]
+    spec = np.abs(np.fft.rfft(signature, axis=-1)) ** 2
+    w = 2 * spec / (n * fs * np.maximum(noise_psd, 1e-300))
+    w[:, 0] = 0.0  # the DC bin is absorbed by the fitted intercept
+    if not noise_like:
+        return float(math.sqrt(2 * w.sum()))
+    m = w.shape[1]
+    edges = np.unique(np.r_[1, 2 ** np.arange(1, int(math.log2(m)) + 1), m])
+    return float(max(w[:, a:b].sum() / math.sqrt(w[:, a:b].size)
+                     for a, b in zip(edges[:-1], edges[1:]) if b > a))  # fmt: skip
+
+
+@dataclass
+class _Clean:
+    families: dict[str, np.ndarray]
+    psd: dict[str, np.ndarray]
+
+
+def _clean_reference(seed: int, settings: dict[str, Any]) -> _Clean:
+    fam_a = residual_families(generate_recording((), seed, **settings)[0])
+    fam_b = residual_families(generate_recording((), seed + 1, **settings)[0])
+    fs = float(settings.get("sample_rate", Settings.sample_rate))
+    psd = {k: _psd_on_grid((fam_a[k] - fam_b[k]) / math.sqrt(2), fs) for k in fam_a}
+    return _Clean(fam_a, psd)
+
+
+def detectability(inj: Injection, seed: int = 101, settings: dict[str, Any] | None = None,
+                  clean: _Clean | None = None) -> dict[str, Any]:  # fmt: skip
+    """SNR of one injected effect in each residual family -> {'snr', 'family', 'per_family'}.
+
+    ``snr`` is ``inf`` when the effect makes the loop diverge (it is then certainly seen).
+    """
+    settings = {} if settings is None else settings
+    clean = _clean_reference(seed, settings) if clean is None else clean
+    try:
+        rec, _ = generate_recording([inj], seed, **settings)
+    except GenerationError:
+        return {"snr": math.inf, "family": "diverged", "per_family": {}}
+    fam = residual_families(rec)
+    fs = rec.sample_rate
+    per = {k: snr(fam[k] - clean.families[k], clean.psd[k], fs, inj.name in NOISE_LIKE)
+           for k in fam}  # fmt: skip
+    best = max(per, key=per.get)
+    return {"snr": per[best], "family": best, "per_family": per}
+
+
+def calibrate(name: str, channel: str | None = None, options: dict | None = None,
+              targets: tuple[float, ...] = (5.0, 50.0), seed: int = 101,
+              settings: dict[str, Any] | None = None) -> dict[str, Any]:  # fmt: skip
+    """Magnitudes giving each target SNR (log bisection to 10 %, then 2 significant digits).
+
+    Returns {'near': m5, 'large': m50, 'snr_near', 'snr_large', 'family'}; a target not
+    reached within the effect's range gives None.
+    """
+    model = EFFECTS[name]
+    clean = _clean_reference(seed, settings or {})
+
+    def rho(m: float) -> dict[str, Any]:
+        inj = Injection(name, m, channel, options=options or {})
+        return detectability(inj, seed, settings, clean)
+
+    out: dict[str, Any] = {"channel": channel or model.default_channel,
+                           "options": dict(options or {})}  # fmt: skip
+    for label, target in zip(("near", "large"), targets):
+        m = _bisect(rho, target, model.limit)
+        if m is None:
+            out.update({label: None, f"snr_{label}": None})
+            continue
+        m = float(f"{m:.2g}")
+        got = rho(m)
+        out.update({label: m, f"snr_{label}": round(got["snr"], 1), "family": got["family"]})
+    return out
+
+
+def _bisect(rho: Any, target: float, limit: float) -> float | None:
+    lo, hi = limit * 1e-9, limit
+    if rho(hi)["snr"] < target:
+        return None
+    for _ in range(40):
+        if hi / lo < 1.1:
+            break
+        mid = math.sqrt(lo * hi)
+        if rho(mid)["snr"] < target:
+            lo = mid
+        else:
+            hi = mid
+    return math.sqrt(lo * hi)
+
+
+#: Channel and options used for the calibrated magnitudes of each effect: chosen so the
+#: effect is excited by the paper's motion (see docs/mismatch-generator.md).
+CALIBRATION_CASES: dict[str, tuple[str | None, dict[str, Any]]] = {
+    "actuation_gain": ("x1", {}),
+    "actuation_delay": ("x1", {}),
+    "stiffness_cross_coupling": ("y1", {"source": "x1"}),
+    "cubic_stiffness": ("x1", {}),
+    "stiffness_drift": ("x1", {}),
+    "bias_drift": ("x1", {}),
+    "rotation_coupling": ("omega_z", {"profile": "slew"}),
+    "sensing_cross_talk": ("y1", {"source": "x1", "sensor": "disp"}),
+    "readout_scale": ("x1", {"sensor": "disp"}),
+    "geometry_error": ("alpha", {}),
+    "glitch": ("x1", {"beta": 5.0, "shape": "shapelet"}),
+    "colored_noise": ("x1", {"exponent": 1.0}),
+    "actuation_quantisation": ("x1", {}),
+}
+
+
+def calibration_table(seed: int = 101) -> list[dict[str, Any]]:
+    """Calibrate every effect on its :data:`CALIBRATION_CASES` channel (default settings)."""
+    rows = []
+    for name, (channel, options) in CALIBRATION_CASES.items():
+        rows.append({"effect": name, **calibrate(name, channel, options, seed=seed)})
+    return rows
+
+
+# --------------------------------------------------------------------------- CLI
+
+
+def _parse_magnitude(text: str, name: str) -> float:
+    if text in ("near", "large"):
+        value = MAGNITUDES.get(name, {}).get(text)
+        if value is None:
+            raise SystemExit(f"no calibrated {text!r} magnitude for {name!r}")
+        return float(value)
+    try:
+        return float(text)
+    except ValueError:
+        raise SystemExit(f"--magnitude must be a number, 'near' or 'large'; got {text!r}") from None
+
+
+def _parse_options(items: list[str]) -> dict[str, dict[str, Any]]:
+    out: dict[str, dict[str, Any]] = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        effect, dot, opt = key.partition(".")
+        if not sep or not dot:
+            raise SystemExit(f"--option must look like EFFECT.KEY=VALUE; got {item!r}")
+        try:
+            parsed: Any = float(value)
+        except ValueError:
+            parsed = value
+        out.setdefault(effect, {})[opt] = parsed
+    return out
+
+
+def _cli_injections(args: argparse.Namespace) -> list[Injection]:
+    names = [e for e in args.effect if e != "none"]
+    if len(names) != len(args.effect) and names:
+        raise SystemExit("--effect none cannot be combined with other effects")
+    for flag in ("magnitude", "channel", "onset", "effect_duration"):
+        given = getattr(args, flag) or []
+        if given and len(given) != len(names):
+            raise SystemExit(f"give one --{flag.replace('_', '-')} per --effect "
+                             f"({len(names)} effects, {len(given)} values)")  # fmt: skip
+    if names and not args.magnitude:
+        raise SystemExit("--magnitude is required for each effect")
+    opts = _parse_options(args.option or [])
+    out = []
+    for i, name in enumerate(names):
+        ch = args.channel[i] if args.channel else None
+        ch = None if ch in (None, "default") else ch
+        options = opts.get(name, {})
+        if args.magnitude[i] in ("near", "large") and ch is None and name in MAGNITUDES:
+            # a calibrated level means the calibrated case unless the user says otherwise
+            ch, options = MAGNITUDES[name]["channel"], {**MAGNITUDES[name]["options"], **options}
+        out.append(Injection(
+            name, _parse_magnitude(args.magnitude[i], name), ch,
+            args.onset[i] if args.onset else None,
+            args.effect_duration[i] if args.effect_duration else None, options,
+        ))  # fmt: skip
+    return out
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m tmopt.mismatch.generate",
+                                description=__doc__.split("\n\n")[0])  # fmt: skip
+    p.add_argument("--effect", action="append", default=[],
+                   help=f"effect to conceal (repeat for combinations) or 'none'; one of "
+                        f"{', '.join(EFFECT_NAMES)}")  # fmt: skip
+    p.add_argument("--magnitude", action="append", help="number (physical units) or near|large")
+    p.add_argument("--channel", action="append", help="channel per effect, or 'default'")
+    p.add_argument("--onset", action="append", type=float, help="effect onset [s]")
+    p.add_argument("--effect-duration", action="append", type=float,
+                   help="effect duration [s]")  # fmt: skip
+    p.add_argument("--option", action="append", help="EFFECT.KEY=VALUE, e.g. glitch.beta=20")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", type=Path, help="output folder")
+    p.add_argument("--truth-dir", type=Path, help="folder for the truth file (default --out)")
+    p.add_argument("--name", help="file stem (default: an opaque hash)")
+    p.add_argument("--format", choices=("h5", "csv"), default="h5")
+    p.add_argument("--duration", type=float, default=Settings.duration)
+    p.add_argument("--sample-rate", type=float, default=Settings.sample_rate)
+    p.add_argument("--excitation", default=Settings.excitation,
+                   help="paper | multisine:A@P,..;A@P | chirp:A,f0,f1;A,f0,f1 | "
+                        "steps:A,P[,ramp];A,P[,ramp] | none")  # fmt: skip
+    p.add_argument("--noise-scale", type=float, default=Settings.noise_scale)
+    p.add_argument("--controller", choices=("frbf_pid", "pid"), default=Settings.controller)
+    p.add_argument("--no-witnesses", action="store_true",
+                   help="omit sc_omega* channels when the spacecraft does not rotate")
+    p.add_argument("--description", default="")
+    p.add_argument("--list", action="store_true", help="list the effects and exit")
+    p.add_argument("--calibrate", action="store_true",
+                   help="recompute the near/large magnitude table (about a minute) and exit")
+    return p
+
+
+def _list_effects() -> str:
+    lines = []
+    for name, model in EFFECTS.items():
+        cal = MAGNITUDES.get(name, {})
+        lines.append(f"{name:26s} {model.parameter} [{model.unit}], |m| <= {model.limit:g}, "
+                     f"channels {'|'.join(model.channels)} (default {model.default_channel}), "
+                     f"options {model.options or '-'}, near {cal.get('near')}, "
+                     f"large {cal.get('large')}")  # fmt: skip
+    return "\n".join(lines)
+
+
+def _markdown(rows: list[dict[str, Any]]) -> str:
+    head = "| effect | channel | options | near | SNR | large | SNR | family |"
+    out = [head, "|" + "---|" * 8]
+    for r in rows:
+        out.append(f"| {r['effect']} | {r['channel']} | {r['options'] or ''} | {r['near']} | "
+                   f"{r['snr_near']} | {r['large']} | {r['snr_large']} | {r.get('family')} |")
+    return "\n".join(out)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    if args.list:
+        print(_list_effects())
+        return 0
+    if args.calibrate:
+        print(_markdown(calibration_table()))
+        return 0
+    if not args.effect or args.out is None:
+        raise SystemExit("--effect (or 'none') and --out are required")
+    settings = dict(duration=args.duration, sample_rate=args.sample_rate,
+                    excitation=args.excitation, noise_scale=args.noise_scale,
+                    controller=args.controller, witnesses=not args.no_witnesses,
+                    description=args.description)  # fmt: skip
+    try:
+        rec, truth = generate_recording(_cli_injections(args), args.seed, **settings)
+        path, tpath = write_generated(rec, truth, args.out, args.name, args.format,
+                                      args.truth_dir)  # fmt: skip
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print(f"{path}\n{tpath}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
+
