@@ -182,7 +182,7 @@ def test_pymoo_c3dtlz1_front_is_infeasible_ours_is_not():
 def test_pymoo_offline_fronts_lie_on_ours(name, n_obj):
     # pymoo computes these fronts itself (MW3, MW12: by walking outwards in 0.1 % steps)
     theirs = np.asarray(get_problem(name).pareto_front())
-    ours = pareto_front(name, n_obj, 2000)
+    ours = pareto_front(name, n_obj, 500)
     nn = np.min(np.linalg.norm(ours[:, None] - ours[None], axis=2) + 9 * np.eye(len(ours)), 1)
     assert _max_dist(theirs, ours) <= 2 * np.percentile(nn, 95) + 2e-3
 

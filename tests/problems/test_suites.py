@@ -1,17 +1,13 @@
 """Suite problems: configs, sizes from config, bad input, constraint groups, no network."""
 
-import socket
-import urllib.request
 from pathlib import Path
 
 import numpy as np
 import pytest
 from pymoo.problems import get_problem
-from pymoo.util.remote import Remote
 
 from tmopt.cli import preflight
 from tmopt.config import ConfigError
-from tmopt.problems import fronts
 from tmopt.problems.suites import SUITE_PROBLEMS, PymooBenchmark, default_n_var
 
 CONF = Path(__file__).resolve().parents[2] / "conf" / "problem"
@@ -91,24 +87,13 @@ def test_constraint_groups_single_or_split():
     assert split.describe()["constraint_grouping"] == "split"
 
 
-class _NoNetwork(AssertionError):
-    pass
-
-
-def _refuse(*args, **kwargs):
-    raise _NoNetwork("network access attempted")
-
-
-def test_fronts_never_touch_the_network(monkeypatch):
-    monkeypatch.setattr(socket.socket, "connect", _refuse)
-    monkeypatch.setattr(socket, "create_connection", _refuse)
-    monkeypatch.setattr(urllib.request, "urlopen", _refuse)
-    monkeypatch.setattr(Remote, "load", _refuse)
-    # the guard works: pymoo's own MW7 and DAS-CMOP fronts are downloads
+def test_fronts_never_touch_the_network():
+    # conftest.py's autouse guard replaces sockets, urllib and pymoo's downloader in every
+    # test of this folder, so each front computed in these tests was computed offline.
+    # The guard works: pymoo's own MW7 and DAS-CMOP fronts are downloads.
     for name, args in (("mw7", ()), ("dascmop1", (8,))):
-        with pytest.raises(_NoNetwork):
+        with pytest.raises(AssertionError, match="network access attempted"):
             get_problem(name, *args).pareto_front()
-    fronts._cached.cache_clear()  # compute everything afresh, under the guard
     for name in SUITE_PROBLEMS:
-        F = PymooBenchmark(name, front_points=40).pareto_front()
-        assert F.ndim == 2 and len(F) >= 5, name
+        F = PymooBenchmark(name, front_points=300).pareto_front()
+        assert F.ndim == 2 and len(F) >= 10, name
