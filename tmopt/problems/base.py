@@ -136,7 +136,8 @@ def _validated_bounds(problem: str, n_var: int, xl, xu) -> tuple[np.ndarray, np.
     if bad.size:
         i = int(bad[0])
         raise ValueError(f"problem {problem}: lower bound must be < upper bound for every "
-                         f"variable; variable {i} has xl={xl_arr[i]!r} >= xu={xu_arr[i]!r}")
+                         f"variable; variable {i} has xl={float(xl_arr[i])!r} >= "
+                         f"xu={float(xu_arr[i])!r}")
     return xl_arr, xu_arr
 
 
