@@ -76,6 +76,26 @@ class Candidate:
     def key(self) -> str:
         return f"{self.effect}[{self.channel}]"
 
+    def physical(self, coef: np.ndarray, cov: np.ndarray) -> dict[str, tuple[float, float]]:
+        """Fitted coefficients -> reported parameters ``{name: (value, sigma)}``.
+
+        ``derived``: ``("sum", h)`` -- the delay ``tau = h sum c_j`` (FIR group delay);
+        ``("ratio", None)`` -- a readout scale fitted on the measured (scaled) channel,
+        ``e = b/(1-b)`` (delta method for sigma); otherwise one coefficient per parameter.
+        """
+        out = {}
+        if not self.derived:
+            for i, name in enumerate(self.params):
+                out[name] = (float(coef[i]), float(math.sqrt(max(cov[i, i], 0.0))))
+            return out
+        for name, (kind, arg) in self.derived.items():
+            if kind == "sum":
+                out[name] = (float(arg * coef.sum()), float(arg * math.sqrt(max(cov.sum(), 0))))
+            else:
+                b, sb = float(coef[0]), math.sqrt(max(cov[0, 0], 0.0))
+                out[name] = (b / (1 - b), sb / (1 - b) ** 2)
+        return out
+
 
 class Effect:
     """Base class: ``candidates(ctx)`` -> variants; class attributes document the physics."""
@@ -318,6 +338,7 @@ class ReadoutScale(Effect):
         d = ctx.data
         for i, a in enumerate(AXES):
             c = _eq_candidate(self, f"acc:{a}", "e", "1", d.acc[i], ctx, i, 1e-2)
+            c.derived = {"e": ("ratio", None)}  # regressor is the *scaled* measured acc
             c.text = self.explanation.format(kind="acceleration", a=a, where=TMS[a])
             out.append(c)
             out.append(_kin_candidate(
@@ -405,7 +426,8 @@ class Glitch(Effect):
                     u = dirs[:, a] / np.linalg.norm(dirs[:, a])
                     s = u @ w
                     corr = np.fft.irfft(np.fft.rfft(s, nfft) * gf, nfft)[:m]
-                    lam = corr**2 / np.maximum(energy, 1e-300)
+                    # onsets whose template is mostly cut off by the record's end: skipped
+                    lam = np.where(energy >= 0.5 * energy[0], corr**2 / energy[0], 0.0)
                     k = int(np.argmax(lam))
                     trials += m
                     if best is None or lam[k] > best[0]:
@@ -455,6 +477,7 @@ class ActuationQuantisation(Effect):
             off = self._offset(f, q, ctx, i)
             saw = q * np.round((f - off) / q) + off - f
             cols.append(Column(f"quant[{a}]", axis_column(ctx.basis, i, saw)))
+        trials *= 2**4  # rounding or truncation chosen per axis
         return [Candidate(self.name, "all axes", "equation", ["beta_x1", "beta_x2", "beta_y1",
                                                               "beta_y2"], ["1"] * 4, cols,
                           None, trials, fixed={"q": q},
@@ -466,9 +489,9 @@ class ActuationQuantisation(Effect):
         return (v / np.linalg.norm(v)) @ w
 
     def _offset(self, f: np.ndarray, q: float, ctx: Context, i: int) -> float:
-        """Rounding offset (round vs floor, DAC offset) that best matches the residual."""
+        """Rounding (offset 0) or truncation (offset q/2), whichever matches the residual."""
         s = self._proj(ctx, i)
-        offs = np.linspace(0, q, 16, endpoint=False)[:, None]
+        offs = np.array([[0.0], [0.5 * q]])
         saw = q * np.round((f[None] - offs) / q) + offs - f[None]
         saw -= saw.mean(axis=1, keepdims=True)
         score = np.abs(saw @ s) / np.maximum(np.sqrt(np.sum(saw**2, axis=1)), 1e-300)
@@ -497,7 +520,19 @@ class ActuationQuantisation(Effect):
         if not np.any(ok):
             return None
         k = np.flatnonzero(ok)[int(np.argmax(power[ok]))]
-        return 1.0 / nu[k], float(np.sum(ok))
+        return 1.0 / self._refine(ctx, nu[k], nu[1] - nu[0]), float(np.sum(ok))
+
+    def _refine(self, ctx: Context, nu0: float, dnu: float) -> float:
+        """Sub-bin frequency of the peak by direct evaluation (the binned transform's
+        resolution leaves the sawtooth's phase drifting across the force range)."""
+        grid = nu0 + np.linspace(-0.5, 0.5, 21) * dnu
+        power = np.zeros(grid.size)
+        for i in range(4):
+            f = ctx.data.force[i]
+            if np.ptp(f) > 0:
+                s = self._proj(ctx, i)
+                power += np.abs(np.exp(-2j * math.pi * grid[:, None] * f[None]) @ s) ** 2
+        return float(grid[int(np.argmax(power))])
 
 
 CATALOGUE: tuple[Effect, ...] = (
