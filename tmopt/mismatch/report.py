@@ -1,0 +1,271 @@
+"""Reports of a diagnosis: ``report.json`` (schema: docs/mismatch-report-schema.md),
+``report.md`` for people, and PNG plots (residual spectrum and time series before/after,
+with the located bands and windows shaded)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from tmopt.mismatch.diagnose import Diagnosis, State, stiffness, summary
+from tmopt.mismatch.effects import CATALOGUE
+from tmopt.mismatch.fit import AXES
+from tmopt.mismatch.locate import tone_transfer, witness_coherence
+
+__all__ = ["SCHEMA_VERSION", "build_report", "write_report", "conclusion"]
+
+SCHEMA_VERSION = 1
+_NEEDS = {e.name: e.needs for e in CATALOGUE}
+
+
+def _coefs(state: State, cand) -> tuple[np.ndarray, np.ndarray]:
+    fit = state.eq_fit if cand.group == "equation" else state.kin_fit
+    idx = [fit.names.index(c.name) for c in cand.columns]
+    return fit.coef[idx], fit.cov[np.ix_(idx, idx)]
+
+
+def _effect_entry(dg: Diagnosis, ev, alts) -> dict:
+    cand = ev.candidate
+    if cand.group == "noise":
+        noise = dg.after.eq_noise
+        params = {"ar_order": int(cand.fixed["ar_order"]),
+                  "ar_coefficients": [a.tolist() for a in noise.ar]}  # fmt: skip
+        unc: dict = {}
+    else:
+        phys = cand.physical(*_coefs(dg.after, cand))
+        params = {k: v for k, (v, _) in phys.items()}
+        unc = {k: s for k, (_, s) in phys.items()}
+        params.update(cand.fixed)
+    return {
+        "name": cand.effect,
+        "channel": cand.channel,
+        "parameters": params,
+        "uncertainties": unc,
+        "units": dict(zip(cand.params, cand.units)),
+        "evidence": {
+            "delta_bic": ev.dbic, "glr": ev.glr, "dof": ev.dof, "p_value": ev.p_value,
+            "p_holm": ev.p_holm, "trials": cand.trials,
+            "alternatives": [{"name": a.candidate.effect, "channel": a.candidate.channel,
+                              "delta_bic": a.dbic} for a in alts],
+        },  # fmt: skip
+        "explanation": cand.text,
+    }
+
+
+def _not_identifiable(dg: Diagnosis) -> list[dict]:
+    out = [dict(r) for r in dg.not_identifiable]
+    for ev, alts in dg.selected:
+        others = [a for a in alts if a.candidate.effect != ev.candidate.effect]
+        if others:
+            out.append({
+                "name": ev.candidate.effect, "channel": ev.candidate.channel,
+                "reason": "ambiguous",
+                "aliased_with": [a.candidate.key for a in others],
+                "needs": _NEEDS[ev.candidate.effect],
+            })  # fmt: skip
+    return out
+
+
+def _fmt_loc(loc: dict) -> str:
+    parts = []
+    if loc["frequency_hz"]:
+        parts.append("f in " + ", ".join(f"[{a:.4g}, {b:.4g}] Hz" for a, b in loc["frequency_hz"]))
+    if loc["time_s"]:
+        parts.append("t in " + ", ".join(f"[{a:.1f}, {b:.1f}] s" for a, b in loc["time_s"][:8])
+                     + (" ..." if len(loc["time_s"]) > 8 else ""))  # fmt: skip
+    if loc["channels"]:
+        parts.append("channels " + ", ".join(loc["channels"]))
+    return "; ".join(parts) or "the whole record"
+
+
+def conclusion(rep: dict) -> str:
+    """One line: what the tool concludes."""
+    if not rep["mismatch_detected"]:
+        return "no significant mismatch: the residual is consistent with the noise model"
+    words = []
+    if rep["effects"]:
+        words.append("mismatch explained by " + ", ".join(
+            f"{e['name']} [{e['channel']}]" for e in rep["effects"]))  # fmt: skip
+    if rep["unexplained"]:
+        words.append("unexplained mismatch at " + _fmt_loc(rep["locations_unexplained"]))
+    return "; ".join(words)
+
+
+def _diagnostics(dg: Diagnosis) -> dict:
+    """Per-tone transfer (x axes) and witness coherence of the nominal residual."""
+    r = dg.before.eq_fit.residual
+    out: dict = {"tone_transfer": {}, "witness_coherence": {}}
+    for a in (0, 1):
+        row = dg.basis[a]
+        proj = row @ r / float(row @ row)  # least-squares single-axis disturbance
+        tones = dg.data.tones(a)
+        if tones:
+            out["tone_transfer"][AXES[a]] = tone_transfer(proj, dg.data.x[a], dg.data.fs, tones)
+    wit = {f"y{k}": dg.data.x[1 + k] for k in (1, 2)}
+    wit.update({f"force_{a}": dg.data.force[i] for i, a in enumerate(AXES)})
+    if dg.data.omega is not None:
+        wit.update({f"sc_omega_{c}": dg.data.omega[j] for j, c in enumerate("xyz")})
+    out["witness_coherence"] = witness_coherence(r[0], wit, dg.data.fs,
+                                                 dg.locations.frequency_hz, 0.01)  # fmt: skip
+    return out
+
+
+def build_report(dg: Diagnosis) -> dict:
+    """The report as a JSON-ready dict (see docs/mismatch-report-schema.md)."""
+    before = summary(dg.data, dg.basis, dg.before)
+    after = summary(dg.data, dg.basis, dg.after)
+    rep = {
+        "schema_version": SCHEMA_VERSION,
+        "source": dg.data.source,
+        "mismatch_detected": dg.mismatch_detected,
+        "unexplained": dg.unexplained,
+        "locations": dg.locations.as_dict(),
+        "locations_unexplained": dg.locations_after.as_dict(),
+        "effects": [_effect_entry(dg, ev, alts) for ev, alts in dg.selected],
+        "not_identifiable": _not_identifiable(dg),
+        "fit": {"before": before, "after": after},
+        "stiffness": {k: _stiff(s) for k, s in (("before", dg.before), ("after", dg.after))},
+        "diagnostics": _diagnostics(dg),
+        "settings": {"family_alpha": dg.settings.alpha, "locate_alpha": dg.settings.locate_alpha,
+                     "max_effects": dg.settings.max_effects, "ar_max": dg.settings.ar_max},
+        "notes": list(dg.data.notes),
+    }  # fmt: skip
+    rep["conclusion"] = conclusion(rep)
+    return rep
+
+
+def _stiff(state: State) -> dict:
+    s = stiffness(state)
+    out = {k: s[k]["value"] for k in ("k1xx", "k2xx")}
+    out.update({f"{k}_sigma": s[k]["sigma"] for k in ("k1xx", "k2xx")})
+    return out
+
+
+def _clean(obj):
+    if isinstance(obj, dict):
+        return {str(k): _clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_clean(v) for v in obj]
+    if isinstance(obj, (np.floating, float)):
+        v = float(obj)
+        return v if math.isfinite(v) else None
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    if isinstance(obj, np.ndarray):
+        return _clean(obj.tolist())
+    return obj
+
+
+def write_report(dg: Diagnosis, out: str | Path, plots: bool = True) -> dict:
+    """Write report.json, report.md and the PNG plots into ``out``; return the report."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    rep = _clean(build_report(dg))
+    (out / "report.json").write_text(json.dumps(rep, indent=2))
+    figs = _plots(dg, rep, out) if plots else []
+    (out / "report.md").write_text(_markdown(rep, figs))
+    return rep
+
+
+# -------------------------------------------------------------------------- markdown
+
+
+def _num(v) -> str:
+    return "—" if v is None else (f"{v:.4g}" if isinstance(v, float) else str(v))
+
+
+def _markdown(rep: dict, figs: list[str]) -> str:
+    fb, fa = rep["fit"]["before"], rep["fit"]["after"]
+    sb, sa = rep["stiffness"]["before"], rep["stiffness"]["after"]
+    lines = [f"# Mismatch report: {rep['source']}", "", f"**{rep['conclusion']}**", ""]
+    lines += ["## Where (nominal model's residual)", "", _fmt_loc(rep["locations"]), ""]
+    lines += ["## Effects selected", ""]
+    if rep["effects"]:
+        lines += ["| effect | channel | parameters | ΔBIC | p (Holm) | why |",
+                  "|---|---|---|---|---|---|"]  # fmt: skip
+        for e in rep["effects"]:
+            unc = e["uncertainties"]
+            par = ", ".join(f"{k} = {_num(v)}" + (f" ± {_num(unc[k])}" if k in unc else "")
+                            for k, v in e["parameters"].items() if not isinstance(v, list))
+            ev = e["evidence"]
+            lines.append(f"| {e['name']} | {e['channel']} | {par} | {_num(ev['delta_bic'])} | "
+                         f"{_num(ev['p_holm'])} | {e['explanation']} |")  # fmt: skip
+    else:
+        lines.append("None passed the calibrated threshold.")
+    lines += ["", "## Fit before and after", "", "| | before | after |", "|---|---|---|"]
+    for k in ("residual_rms", "bic", "whiteness_p", "output_error_rms", "kinematic_rms"):
+        lines.append(f"| {k} | {_num(fb[k])} | {_num(fa[k])} |")
+    for k in ("k1xx", "k2xx"):
+        lines.append(f"| {k} [s^-2] | {_num(sb[k])} ± {_num(sb[k + '_sigma'])} | "
+                     f"{_num(sa[k])} ± {_num(sa[k + '_sigma'])} |")  # fmt: skip
+    lines += ["", "## Not identifiable with this excitation", ""]
+    for r in rep["not_identifiable"]:
+        extra = f" (with {r['aliased_with']})" if r.get("aliased_with") else ""
+        lines.append(f"- {r['name']} [{r['channel']}]: {r['reason']}{extra}; needs {r['needs']}")
+    if not rep["not_identifiable"]:
+        lines.append("- (none)")
+    tt = rep["diagnostics"]["tone_transfer"]
+    if tt:
+        lines += ["", "## Per-tone transfer of the residual to the motion", "",
+                  "| axis | f [Hz] | abs(T) [s^-2] | phase [deg] |",
+                  "|---|---|---|---|"]  # fmt: skip
+        for ax, rows in tt.items():
+            lines += [f"| {ax} | {r['frequency_hz']:.4g} | {r['magnitude']:.3g} | "
+                      f"{r['phase_deg']:.1f} |" for r in rows]  # fmt: skip
+    lines += ["", "## Plots", ""] + [f"![{f}]({f})" for f in figs]
+    if rep["notes"]:
+        lines += ["", "## Notes", ""] + [f"- {n}" for n in rep["notes"]]
+    return "\n".join(lines) + "\n"
+
+
+# ----------------------------------------------------------------------------- plots
+
+
+def _plots(dg: Diagnosis, rep: dict, out: Path) -> list[str]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    d = dg.data
+    before, after = dg.before.eq_fit.residual, dg.after.eq_fit.residual
+    names = []
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    for r, lab in ((before, "before"), (after, "after")):
+        f, p = _psd(r[0], d.fs)
+        ax.loglog(f[1:], np.sqrt(p[1:]), label=f"K-combination residual, {lab}", lw=0.8)
+    sig = math.sqrt(dg.after.eq_noise.cov[0, 0])
+    ax.axhline(sig * math.sqrt(2 / d.fs), color="k", ls="--", lw=0.8, label="noise floor (white)")
+    for lo, hi in rep["locations"]["frequency_hz"]:
+        ax.axvspan(max(lo, 1 / (d.n * d.dt)), hi, color="r", alpha=0.15)
+    ax.set(xlabel="frequency [Hz]", ylabel="ASD [m s^-2 / sqrt(Hz)]", title="Residual spectrum")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out / "residual_psd.png", dpi=110)
+    plt.close(fig)
+    names.append("residual_psd.png")
+    fig, axes = plt.subplots(2, 1, figsize=(8, 5), sharex=True)
+    for a, (r, lab) in zip(axes, ((before, "before"), (after, "after"))):
+        a.plot(d.time, r[0], lw=0.4, label="K-combination")
+        a.plot(d.time, r[1], lw=0.4, label="second f_B-free combination")
+        for t0, t1 in rep["locations"]["time_s"]:
+            a.axvspan(t0, t1, color="r", alpha=0.15)
+        a.set(ylabel=f"residual {lab} [m s^-2]")
+        a.legend(fontsize=7, loc="upper right")
+    axes[-1].set(xlabel="time [s]")
+    fig.tight_layout()
+    fig.savefig(out / "residual_time.png", dpi=110)
+    plt.close(fig)
+    names.append("residual_time.png")
+    return names
+
+
+def _psd(v: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray]:
+    from scipy import signal
+
+    return signal.welch(v, fs=fs, nperseg=min(v.size, 4096))
