@@ -1,0 +1,304 @@
+"""Collect a sweep: ``python -m tmopt.collect SWEEP_DIR [--out DIR] [--reference-algorithm A]``.
+
+Reads every run folder under SWEEP_DIR (any launcher; several sweeps may share it) and
+writes into ``--out`` (default ``SWEEP_DIR/collected``):
+
+- ``summary.md``: what was found and written, with the runs' total and elapsed time;
+- ``runs.csv``: one line per run (status, settings, seed, every number);
+- ``status.md/.csv``: every run that is not complete (failed: its error; incomplete:
+  evaluations done so far), and duplicates left out of the statistics;
+- stiffness problem: ``table3.md/.csv`` (scheme B, 3 frequencies, one row per algorithm:
+  Table 3's columns as mean ± std over seeds and the Wilcoxon rank-sum p-value of M
+  against the reference algorithm), ``table3_vs_paper.md``, ``configurations.md/.csv``
+  (every scheme x k setting) with ``fig8.png`` and ``fig9.png``, and ``fig10.png/.csv``
+  (the chosen motion state, re-simulated);
+- benchmark suites: ``benchmarks.md/.csv`` (IGD, IGD+, HV mean ± std, p-values of IGD and
+  HV against the reference) with ``benchmarks_igd.png`` and ``benchmarks_hv.png``.
+
+Settings are the keys whose effective value differs between runs (tmopt.reporting.runs);
+statistics use complete runs only, and every table says how many of a setting's runs
+that is.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from pathlib import Path
+
+from tmopt.archive import atomic_write_text
+from tmopt.reporting import figures
+from tmopt.reporting.paper import algorithm_order, display_name
+from tmopt.reporting.runs import (
+    COMPLETE,
+    RunRecord,
+    deduplicate,
+    discover_runs,
+    group_runs,
+    setting_keys,
+)
+from tmopt.reporting.stats import fmt_number
+from tmopt.reporting.tables import (
+    BENCHMARK_METRICS,
+    STIFFNESS_METRICS,
+    csv_rows,
+    markdown_rows,
+    paper_comparison,
+    summarise,
+    to_csv,
+    write_table,
+)
+
+log = logging.getLogger("tmopt.collect")
+DEFAULT_REFERENCE = "mgsaea_ipc"
+#: The paper's optimal configuration (Sec. 4.4), the setting of Table 3.
+TABLE3_SETTING = {"scheme": "B", "problem.n_freq": "3"}
+TEST_NOTE = ("p: two-sided Wilcoxon rank-sum test (scipy.stats.mannwhitneyu, exact for "
+             "small samples without ties) over seeds against the reference's runs in the same "
+             "setting; + / - / = : significantly better / worse / no significant difference "
+             "at 0.05 (by the medians). n/a: fewer than 2 complete runs on a side, or no "
+             "reference runs in that setting.")
+
+
+def collect(sweep_dir: Path, out: Path | None = None, reference: str = DEFAULT_REFERENCE,
+            fig10_run: Path | None = None, fig10: bool = True) -> list[Path]:
+    """Write every table and figure of the sweep in ``sweep_dir``; return the files written."""
+    out = Path(out) if out is not None else Path(sweep_dir) / "collected"
+    out.mkdir(parents=True, exist_ok=True)
+    runs, duplicates = deduplicate(discover_runs(sweep_dir))
+    if not runs:
+        raise FileNotFoundError(f"no run folders under {sweep_dir}")
+    notes = [_write_runs(runs, out), _write_status(runs, duplicates, out)]
+    stiffness = [r for r in runs if r.is_stiffness]
+    suites = [r for r in runs if not r.is_stiffness]
+    if stiffness:
+        notes += _write_stiffness(stiffness, out, reference, fig10_run if fig10 else None,
+                                  fig10)
+    if suites:
+        notes.append(_write_benchmarks(suites, out, reference))
+    atomic_write_text(out / "summary.md", _summary(sweep_dir, runs, duplicates, notes))
+    return sorted(p for p in out.iterdir() if p.is_file())
+
+
+# ---- every run ------------------------------------------------------------------------
+def _write_runs(runs: list[RunRecord], out: Path) -> str:
+    keys = setting_keys(runs)
+    rows = [_run_row(r, keys) for r in runs]
+    atomic_write_text(out / "runs.csv", to_csv(rows))
+    return f"`runs.csv`: {len(runs)} runs, one line each (settings: {', '.join(keys)})."
+
+
+def _run_row(run: RunRecord, keys: list[str]) -> dict:
+    m = run.metrics or {}
+    row = {"path": run.name, "status": run.status, **{k: run.value(k) for k in keys},
+           "seed": run.seed, "budget": run.budget, "n_evals": run.n_evals,
+           "chosen_feasible": ((m.get("chosen") or {}).get("feasible")),
+           "feasible_ratio": m.get("feasible_ratio"), "pareto_size": m.get("pareto_size")}
+    for key in ("igd", "igd_plus", "hv", "wall_time_s"):
+        row[key] = m.get(key)
+    row.update({k: v for k, v in run.identification.items() if isinstance(v, (int, float))})
+    row["error"] = (run.failure or {}).get("message", "")
+    return row
+
+
+def _write_status(runs: list[RunRecord], duplicates: list[RunRecord], out: Path) -> str:
+    bad = [r for r in runs if r.status != COMPLETE]
+    rows = [{"path": r.name, "status": r.status, "seed": r.seed,
+             "evaluations": f"{r.n_evals if r.n_evals is not None else '?'}/{r.budget}",
+             "reason": _reason(r)} for r in bad]
+    rows += [{"path": r.name, "status": "duplicate (left out)", "seed": r.seed,
+              "evaluations": f"{r.n_evals}/{r.budget}",
+              "reason": "same configuration and seed as another complete run"}
+             for r in duplicates]
+    header = ["path", "status", "seed", "evaluations", "reason"]
+    body = [[str(row[h]) for h in header] for row in rows]
+    if not body:
+        body = [["(none)", "every run is complete", "", "", ""]]
+    write_table(out, "status", "Runs that are not complete", header, body, rows,
+                "Failed runs stopped on an error (failure.json); incomplete runs have no "
+                "complete metrics.json (interrupted or still running): re-running the same "
+                "sweep command resumes them and skips the finished ones.")
+    return (f"`status.md`: {sum(r.status == 'failed' for r in bad)} failed, "
+            f"{sum(r.status == 'incomplete' for r in bad)} incomplete, "
+            f"{len(duplicates)} duplicate runs.")
+
+
+def _reason(run: RunRecord) -> str:
+    if run.failure:
+        return f"{run.failure.get('error', 'error')}: {run.failure.get('message', '')}"
+    if run.n_evals is None:
+        return "no archive yet: the run never evaluated a design (or is starting)"
+    return "no complete metrics.json: interrupted or still running"
+
+
+# ---- stiffness --------------------------------------------------------------------------
+def _write_stiffness(runs: list[RunRecord], out: Path, reference: str,
+                     fig10_run: Path | None, fig10: bool) -> list[str]:
+    keys = _with(setting_keys(runs), ("scheme", "problem.n_freq"))
+    keys = [k for k in keys if k != "problem"]
+    rows = _sorted(summarise(group_runs(runs, keys), STIFFNESS_METRICS, reference))
+    header, body = markdown_rows(rows, STIFFNESS_METRICS, keys, reference)
+    write_table(out, "configurations", "Stiffness problem: every configuration (Figs. 8-9)",
+                header, body, csv_rows(rows, STIFFNESS_METRICS, keys),
+                "Chosen design (Eq. 21) of each run, TM1's numbers (the key test mass). "
+                + TEST_NOTE)
+    figures.fig8(rows, out / "fig8.png")
+    figures.fig9(rows, out / "fig9.png")
+    notes = [f"`configurations.md`, `fig8.png`, `fig9.png`: {len(rows)} stiffness "
+             f"settings ({', '.join(keys)})."]
+    t3_runs = [r for r in runs if all(r.value(k) == v for k, v in TABLE3_SETTING.items())]
+    if t3_runs:
+        notes.append(_write_table3(t3_runs, out, reference))
+    else:
+        notes.append("Table 3 not written: no run of scheme B with 3 frequencies.")
+    if fig10:
+        notes.append(_write_fig10(t3_runs or runs, out, reference, fig10_run))
+    return notes
+
+
+def _write_table3(runs: list[RunRecord], out: Path, reference: str) -> str:
+    keys = [k for k in setting_keys(runs) if k not in (*TABLE3_SETTING, "problem")]
+    rows = _sorted(summarise(group_runs(runs, keys), STIFFNESS_METRICS, reference))
+    metrics = STIFFNESS_METRICS  # Table 3's columns between feasibility and cost
+    header, body = markdown_rows(rows, metrics, keys, reference)
+    write_table(out, "table3", "Table 3: scheme B, 3 frequencies (18 variables)", header, body,
+                csv_rows(rows, metrics, keys),
+                "Chosen design (Eq. 21) of each run; mean ± std over seeds. 'chosen "
+                "feasible': runs whose chosen design satisfies every constraint (otherwise "
+                "the least-violating design is reported). " + TEST_NOTE)
+    p_header, p_body = paper_comparison(rows)
+    atomic_write_text(out / "table3_vs_paper.md",
+                      "## Table 3: ours (mean over seeds) beside the paper's single run\n\n"
+                      + _md(p_header, p_body))
+    return f"`table3.md`, `table3_vs_paper.md`: {len(rows)} rows ({', '.join(keys)})."
+
+
+def _write_fig10(runs: list[RunRecord], out: Path, reference: str,
+                 chosen: Path | None) -> str:
+    run, why = _fig10_choice(runs, reference, chosen)
+    if run is None:
+        return "Fig. 10 not drawn: no complete stiffness run."
+    caption = figures.fig10(run, out / "fig10.png", out / "fig10.csv", why)
+    atomic_write_text(out / "fig10.md", f"![Fig. 10](fig10.png)\n\n{caption}\n")
+    return f"`fig10.png`, `fig10.md`, `fig10.csv`: {caption}"
+
+
+def _fig10_choice(runs: list[RunRecord], reference: str,
+                  chosen: Path | None) -> tuple[RunRecord | None, str]:
+    """The run asked for, else the reference algorithm's median-M run (not its best)."""
+    done = [r for r in runs if r.status == COMPLETE and r.identification.get("M_TM1")
+            is not None]
+    if chosen is not None:
+        match = [r for r in done if r.path.resolve() == Path(chosen).resolve()]
+        if not match:
+            raise FileNotFoundError(f"--fig10-run {chosen} is not a complete stiffness run")
+        return match[0], "run chosen on the command line"
+    pool = [r for r in done if r.value("algorithm") == reference]
+    who = display_name(reference)
+    if not pool and done:
+        best = min({r.value("algorithm") for r in done}, key=lambda a: _mean_m(done, a))
+        pool, who = [r for r in done if r.value("algorithm") == best], display_name(best)
+    if not pool:
+        return None, ""
+    pool.sort(key=lambda r: r.identification["M_TM1"])
+    median = pool[(len(pool) - 1) // 2]
+    return median, (f"{who}'s median run by M over {len(pool)} seed(s), "
+                    f"M = {fmt_number(median.identification['M_TM1'])}")
+
+
+def _mean_m(runs: list[RunRecord], algorithm: str) -> float:
+    vals = [r.identification["M_TM1"] for r in runs if r.value("algorithm") == algorithm]
+    return sum(vals) / len(vals)
+
+
+# ---- benchmarks -------------------------------------------------------------------------
+def _write_benchmarks(runs: list[RunRecord], out: Path, reference: str) -> str:
+    keys = _with(setting_keys(runs), ("problem",))
+    rows = summarise(group_runs(runs, keys), BENCHMARK_METRICS, reference)
+    rows.sort(key=lambda r: (r["setting"].get("problem", ""), _row_order(r)))
+    header, body = markdown_rows(rows, BENCHMARK_METRICS, keys, reference)
+    write_table(out, "benchmarks", "Benchmark suites: IGD, IGD+ and HV of the final feasible "
+                "non-dominated set", header, body, csv_rows(rows, BENCHMARK_METRICS, keys),
+                "IGD/IGD+ against the offline true front (lower is better); HV of the set "
+                "normalised by the true front's ideal and nadir, reference point 1.1 (higher "
+                "is better); a run without any feasible design has no IGD and HV 0. 'feasible "
+                "set found': runs with at least one feasible design. " + TEST_NOTE)
+    figures.benchmark_boxes(rows, "igd", "IGD over seeds (lower is better)",
+                            out / "benchmarks_igd.png")
+    figures.benchmark_boxes(rows, "hv", "HV over seeds (higher is better)",
+                            out / "benchmarks_hv.png")
+    return f"`benchmarks.md`, `benchmarks_igd.png`, `benchmarks_hv.png`: {len(rows)} settings."
+
+
+# ---- helpers ----------------------------------------------------------------------------
+def _with(keys: list[str], extra: tuple[str, ...]) -> list[str]:
+    return [*keys, *(k for k in extra if k not in keys)]
+
+
+def _row_order(row: dict) -> tuple:
+    s = row["setting"]
+    return (algorithm_order(s.get("algorithm", "")), s.get("algorithm", ""),
+            tuple(sorted((k, v) for k, v in s.items() if k != "algorithm")))
+
+
+def _sorted(rows: list[dict]) -> list[dict]:
+    def key(row: dict) -> tuple:
+        s = row["setting"]
+        n_freq = s.get("problem.n_freq", "0")
+        return (s.get("scheme", ""), int(n_freq) if n_freq.isdigit() else 0, _row_order(row))
+    return sorted(rows, key=key)
+
+
+def _md(header, body) -> str:
+    from tmopt.reporting.tables import to_markdown
+
+    return to_markdown(header, body)
+
+
+def _summary(sweep_dir: Path, runs: list[RunRecord], duplicates: list[RunRecord],
+             notes: list[str]) -> str:
+    done = [r for r in runs if r.status == COMPLETE]
+    total = sum((r.metrics or {}).get("wall_time_s", 0.0) for r in done)
+    lines = [f"# Sweep {sweep_dir}", "",
+             f"{len(runs)} runs ({len(done)} complete); {len(duplicates)} duplicates left out.",
+             f"Sum of the complete runs' optimisation wall times: {total:.0f} s "
+             f"({total / 3600:.2f} h); elapsed from the first run's start to the last run's "
+             f"end (file times): {_elapsed(runs):.0f} s.", "", "Written:", ""]
+    lines += [f"- {n}" for n in notes]
+    return "\n".join(lines) + "\n"
+
+
+def _elapsed(runs: list[RunRecord]) -> float:
+    starts = [p.stat().st_mtime for r in runs for p in [r.path / ".hydra" / "config.yaml"]
+              if p.exists()]
+    ends = [p.stat().st_mtime for r in runs for p in [r.path / "metrics.json"] if p.exists()]
+    return max(ends) - min(starts) if starts and ends else float("nan")
+
+
+# ---- command line -----------------------------------------------------------------------
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m tmopt.collect", description=__doc__.split(
+        "\n")[0])
+    ap.add_argument("sweep_dir", type=Path, help="sweep folder (e.g. multirun/quick)")
+    ap.add_argument("--out", type=Path, default=None, help="default: SWEEP_DIR/collected")
+    ap.add_argument("--reference-algorithm", default=DEFAULT_REFERENCE,
+                    help="algorithm the others are tested against (default: mgsaea_ipc)")
+    ap.add_argument("--fig10-run", type=Path, default=None,
+                    help="run folder whose chosen design Fig. 10 shows (default: the "
+                         "reference algorithm's median run by M)")
+    ap.add_argument("--no-fig10", action="store_true", help="skip Fig. 10's re-simulation")
+    args = ap.parse_args(argv)
+    logging.basicConfig(level=logging.WARNING, format="%(message)s")
+    try:
+        files = collect(args.sweep_dir, args.out, args.reference_algorithm, args.fig10_run,
+                        fig10=not args.no_fig10)
+    except FileNotFoundError as exc:
+        print(f"tmopt.collect: error: {exc}", file=sys.stderr)
+        return 2
+    print((files[0].parent / "summary.md").read_text() if files else "nothing written")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""Sweep reporting behind ``python -m tmopt.collect``: runs, statistics, tables, figures."""

@@ -1,0 +1,200 @@
+"""Figures of a sweep: paper Figs. 8-10 for the stiffness problem, IGD/HV boxes for suites.
+
+Fig. 10 needs time series that runs do not store (only the chosen design's numbers are
+in metrics.json), so the chosen design is simulated again with the run's own problem
+configuration and noise seed. The simulator is deterministic for a given design and
+seed, so this reproduces the run's numbers exactly; :func:`fig10` checks that it does
+and says so in the caption.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from tmopt.reporting.runs import RunRecord  # noqa: E402
+from tmopt.reporting.stats import finite  # noqa: E402
+from tmopt.reporting.tables import label  # noqa: E402
+
+SCHEMES = ("A", "B", "C")
+
+
+# ---- Figs. 8 and 9 --------------------------------------------------------------------
+def _series(rows: list[dict], scheme: str) -> dict[str, list[dict]]:
+    """Summary rows of one scheme, split by everything but scheme and k, sorted by k."""
+    out: dict[str, list[dict]] = {}
+    for row in rows:
+        s = row["setting"]
+        if s.get("scheme") != scheme:
+            continue
+        name = label(s, hide=("scheme", "problem.n_freq", "problem")) or "runs"
+        out.setdefault(name, []).append(row)
+    for series in out.values():
+        series.sort(key=lambda r: int(r["setting"]["problem.n_freq"]))
+    return out
+
+
+def _errorbar(ax, rows: list[dict], key: str, **kw) -> None:
+    k = [int(r["setting"]["problem.n_freq"]) for r in rows]
+    mean = [r[key][0] for r in rows]
+    std = [0.0 if not math.isfinite(r[key][1]) else r[key][1] for r in rows]
+    ax.errorbar(k, mean, yerr=std, capsize=3, marker="o", **kw)
+
+
+def fig8(rows: list[dict], path: Path) -> None:
+    """Per scheme: convergence time (left axis) and accuracy (right, log) against k."""
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
+    for ax, scheme in zip(axes, SCHEMES):
+        ax2 = ax.twinx()
+        series_of_scheme = _series(rows, scheme)
+        if not series_of_scheme:
+            ax.text(0.5, 0.5, f"no runs of scheme {scheme}", ha="center",
+                    transform=ax.transAxes)
+        for i, (name, series) in enumerate(series_of_scheme.items()):
+            _errorbar(ax, series, "convergence_time_TM1", color=f"C{i}", label=f"{name}: time")
+            _errorbar(ax2, series, "convergence_accuracy_TM1", color=f"C{i}", ls="--",
+                      label=f"{name}: accuracy")
+        ax.set_title(f"({'abc'[SCHEMES.index(scheme)]}) Scheme {scheme}")
+        ax.set_xlabel("number of frequencies k")
+        ax.xaxis.get_major_locator().set_params(integer=True)
+        ax.set_ylabel("convergence time TM1 (s), solid")
+        ax2.set_ylabel("convergence accuracy TM1 (s$^{-2}$), dashed")
+        _log_if_positive(ax2)
+        _merged_legend(ax, ax2)
+    fig.suptitle("Fig. 8: chosen design (Eq. 21) per configuration, mean ± std over seeds")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def fig9(rows: list[dict], path: Path) -> None:
+    """M (Eq. 29) of the chosen design against k, one line per scheme (and algorithm)."""
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    i = 0
+    for scheme in SCHEMES:
+        for name, series in _series(rows, scheme).items():
+            _errorbar(ax, series, "M_TM1", color=f"C{i}", label=f"scheme {scheme}: {name}")
+            i += 1
+    ax.set_xlabel("number of frequencies k")
+    ax.xaxis.get_major_locator().set_params(integer=True)
+    ax.set_ylabel("M of TM1 (Eq. 29, lower is better)")
+    ax.set_title("Fig. 9: M per configuration, mean ± std over seeds")
+    if i:
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def _log_if_positive(ax) -> None:
+    lines = [ln for ln in ax.get_lines() if len(ln.get_ydata())]
+    if lines and all(np.all(np.asarray(ln.get_ydata(), float) > 0) for ln in lines):
+        ax.set_yscale("log")
+
+
+def _merged_legend(ax, ax2) -> None:
+    h1, l1 = ax.get_legend_handles_labels()
+    h2, l2 = ax2.get_legend_handles_labels()
+    if h1 or h2:
+        ax.legend(h1 + h2, l1 + l2, fontsize=7, loc="best")
+
+
+# ---- Fig. 10 ------------------------------------------------------------------------
+def fig10(run: RunRecord, png: Path, csv_path: Path, why: str) -> str:
+    """Re-simulate the run's chosen design; plot TM1/TM2 motion and the k1xx curve.
+
+    Returns the caption (also written under the figure).
+    """
+    from tmopt.problems.stiffness import StiffnessProblem
+
+    node = run.config["problem"]  # resolved config.yaml: constructor arguments + _target_
+    problem = StiffnessProblem(**{k: v for k, v in node.items() if not k.startswith("_")})
+    x = np.asarray(run.metrics["chosen"]["X"], dtype=float)
+    res = problem.simulate_designs(x[None, :], record="full")
+    check = problem.identification_report(x)
+    d = res.design(0)
+    _fig10_plot(d, res.config.theta_true[0], png, f"Fig. 10: {why} (re-simulated)")
+    _fig10_csv(d, csv_path)
+    return _fig10_caption(run, check, why)
+
+
+def _fig10_plot(d: dict, truth: float, path: Path, title: str) -> None:
+    fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True)
+    for ax, k in zip(axes[:2], ("1", "2")):
+        ax.plot(d["time"], d[f"ref_x{k}"], "k--", lw=1, label="reference")
+        ax.plot(d["time"], d[f"x{k}_true"], "C0", lw=0.8, label=f"x{k} (controlled)")
+        ax.set_ylabel(f"TM{k} sensitive axis x [m]")
+        ax.legend(loc="upper right")
+        ax.set_title(f"({'ab'[int(k) - 1]}) TM{k}: reference and controlled displacement")
+    axes[2].plot(d["time"], d["theta_hat"][:, 0], "C0", lw=0.8, label="k1xx estimate (RLS)")
+    axes[2].axhline(truth, color="k", ls="--", lw=1, label="truth")
+    axes[2].set_ylim(truth - 0.5 * abs(truth), truth + 0.5 * abs(truth))
+    axes[2].set_ylabel("k1xx [s$^{-2}$]")
+    axes[2].set_xlabel("time [s]")
+    axes[2].set_title("(c) identification curve of TM1")
+    axes[2].legend(loc="upper right")
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def _fig10_csv(d: dict, path: Path) -> None:
+    """The time series at 1 Hz (every 10th sample at 10 Hz), enough to redraw the figure."""
+    from tmopt.archive import atomic_write_text
+
+    step = max(1, int(round(1.0 / max(np.diff(d["time"][:2]).item(), 1e-9))))
+    cols = {"time_s": d["time"], "ref_x1_m": d["ref_x1"], "x1_m": d["x1_true"],
+            "ref_x2_m": d["ref_x2"], "x2_m": d["x2_true"], "k1xx_hat": d["theta_hat"][:, 0]}
+    lines = [",".join(cols)]
+    for i in range(0, len(d["time"]), step):
+        lines.append(",".join(repr(float(v[i])) for v in cols.values()))
+    atomic_write_text(path, "\n".join(lines) + "\n")
+
+
+def _fig10_caption(run: RunRecord, check: dict, why: str) -> str:
+    ident = run.identification
+    stored, again = ident.get("M_TM1"), check.get("M_TM1")
+    same = stored is not None and again is not None and math.isclose(stored, again,
+                                                                     rel_tol=1e-9)
+    verdict = ("reproduces the run's stored numbers exactly" if same else
+               f"DIFFERS from the stored M = {stored} (re-simulated M = {again})")
+    feasible = (run.metrics.get("chosen") or {}).get("feasible")
+    return (f"Fig. 10: chosen design (Eq. 21) of run {run.name or run.path.name} ({why}); "
+            f"{'feasible' if feasible else 'INFEASIBLE (no feasible design found)'}. "
+            f"Convergence time {check.get('convergence_time_TM1', math.nan):.1f} s, "
+            f"accuracy {check.get('convergence_accuracy_TM1', math.nan):.3g} s^-2, "
+            f"M = {again if again is not None else math.nan:.3g}. Time series re-simulated "
+            f"with the run's problem configuration and noise seed "
+            f"{run.config['problem'].get('noise_seed')}; the re-simulation {verdict}.")
+
+
+# ---- benchmarks ---------------------------------------------------------------------
+def benchmark_boxes(rows: list[dict], key: str, title: str, path: Path) -> None:
+    """One panel per problem, one box per setting (algorithm, budget, ...)."""
+    problems = sorted({r["setting"]["problem"] for r in rows})
+    n = max(1, len(problems))
+    cols = min(3, n)
+    fig, axes = plt.subplots(math.ceil(n / cols), cols, figsize=(5 * cols, 3.8 *
+                                                                  math.ceil(n / cols)),
+                             squeeze=False)
+    for ax, prob in zip(axes.flat, problems):
+        sub = [r for r in rows if r["setting"]["problem"] == prob]
+        data = [finite(r["values"][key]) for r in sub]
+        names = [label(r["setting"], hide=("problem",)) for r in sub]
+        ax.boxplot([d if len(d) else [np.nan] for d in data], showmeans=True)
+        ax.set_xticks(range(1, len(names) + 1), names, rotation=60, ha="right", fontsize=7)
+        ax.set_title(prob)
+        ax.set_ylabel(key.upper())
+    for ax in list(axes.flat)[len(problems):]:
+        ax.axis("off")
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

@@ -1,0 +1,237 @@
+"""Tables of a sweep: per setting, mean ± std over seeds and the test against a reference.
+
+Every table is written twice, as CSV (numbers, one column per statistic, for further
+processing) and as Markdown (formatted ``mean ± std`` for reading). Only complete runs
+enter the statistics; the ``runs`` column says how many of the setting's runs that is,
+and the status table lists every run that is not complete.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from tmopt.archive import atomic_write_text
+from tmopt.reporting.paper import PAPER_TABLE3, TABLE3_COLUMNS, display_name
+from tmopt.reporting.runs import COMPLETE, RunRecord
+from tmopt.reporting.stats import fmt_mean_std, fmt_number, fmt_p, mark, mean_std, rank_sum
+
+Setting = tuple[tuple[str, str], ...]
+
+
+@dataclass(frozen=True)
+class Metric:
+    """One column of a summary table.
+
+    Attributes:
+        key: Column id (CSV prefix).
+        header: Markdown header.
+        get: Value of a complete run (None when it has none).
+        lower_is_better: Direction, for the +/-/= marks.
+        tested: Whether the rank-sum test against the reference is reported.
+        sci: Scientific notation (None: decide by magnitude).
+    """
+
+    key: str
+    header: str
+    get: Callable[[RunRecord], float | None]
+    lower_is_better: bool = True
+    tested: bool = False
+    sci: bool | None = None
+
+
+def _ident(key: str) -> Callable[[RunRecord], float | None]:
+    return lambda run: run.identification.get(key)
+
+
+def _metric(key: str) -> Callable[[RunRecord], float | None]:
+    return lambda run: (run.metrics or {}).get(key)
+
+
+def _chosen_feasible(run: RunRecord) -> float:
+    return float(bool(((run.metrics or {}).get("chosen") or {}).get("feasible")))
+
+
+def _has_front(run: RunRecord) -> float:
+    return float(((run.metrics or {}).get("pareto_size") or 0) > 0)
+
+
+TABLE3_METRICS: tuple[Metric, ...] = tuple(
+    Metric(key, header, _ident(key), tested=key == "M_TM1",
+           sci=None if "time" in key or key.startswith("M_") else True)
+    for key, header in TABLE3_COLUMNS)
+COMMON_METRICS: tuple[Metric, ...] = (
+    Metric("n_evals", "real evaluations", _metric("n_evals"), sci=False),
+    Metric("wall_time_s", "wall time per run (s)", _metric("wall_time_s"), sci=False),
+)
+STIFFNESS_METRICS = (
+    Metric("chosen_feasible", "chosen feasible", _chosen_feasible),
+    *TABLE3_METRICS, *COMMON_METRICS)
+BENCHMARK_METRICS: tuple[Metric, ...] = (
+    Metric("has_front", "feasible set found", _has_front),
+    Metric("igd", "IGD", _metric("igd"), tested=True),
+    Metric("igd_plus", "IGD+", _metric("igd_plus")),
+    Metric("hv", "HV", _metric("hv"), lower_is_better=False, tested=True),
+    *COMMON_METRICS)
+
+
+# ---- summaries ------------------------------------------------------------------------
+def summarise(groups: dict[Setting, list[RunRecord]], metrics: Sequence[Metric],
+              reference: str | None) -> list[dict]:
+    """One row per setting: counts, mean/std per metric, p-values against the reference.
+
+    The reference of a setting is the setting with the same values of every key except
+    ``algorithm = reference``; a tested metric of a setting without one has p = NaN.
+    """
+    values = {s: {m.key: [m.get(r) for r in _complete(runs)] for m in metrics}
+              for s, runs in groups.items()}
+    rows = []
+    for setting, runs in groups.items():
+        row: dict = {"setting": dict(setting), "n_complete": len(_complete(runs)),
+                     "n_runs": len(runs)}
+        ref = _reference_setting(setting, reference, groups)
+        for m in metrics:
+            mean, std, n = mean_std(values[setting][m.key])
+            row[m.key] = (mean, std, n)
+            if m.tested:
+                p = rank_sum(values[setting][m.key], values[ref][m.key]) if ref else math.nan
+                same = ref == setting
+                row[f"p_{m.key}"] = math.nan if same else p
+                row[f"mark_{m.key}"] = "" if same else mark(
+                    values[setting][m.key], values[ref][m.key] if ref else [], p,
+                    m.lower_is_better)
+        row["values"] = values[setting]
+        rows.append(row)
+    return rows
+
+
+def _complete(runs: list[RunRecord]) -> list[RunRecord]:
+    return [r for r in runs if r.status == COMPLETE]
+
+
+def _reference_setting(setting: Setting, reference: str | None,
+                       groups: dict[Setting, list[RunRecord]]) -> Setting | None:
+    if not reference:
+        return None
+    target = tuple((k, reference if k == "algorithm" else v) for k, v in setting)
+    return target if target in groups else None
+
+
+# ---- formatting -------------------------------------------------------------------------
+def label(setting: dict, hide: Sequence[str] = ()) -> str:
+    """``NSGA-II (budget=300)``: the algorithm's display name, then the other keys."""
+    algo = setting.get("algorithm")
+    rest = [f"{k}={v}" for k, v in setting.items() if k not in (*hide, "algorithm")]
+    name = display_name(algo) if algo else ""
+    if not rest:
+        return name
+    return f"{name} ({', '.join(rest)})" if name else ", ".join(rest)
+
+
+def markdown_rows(rows: list[dict], metrics: Sequence[Metric], keys: Sequence[str],
+                  reference: str | None) -> tuple[list[str], list[list[str]]]:
+    """Header and body of a Markdown summary table."""
+    header = [*keys, "runs"]
+    for m in metrics:
+        header.append(m.header)
+        if m.tested and reference:
+            header.append(f"p ({m.header}) vs {display_name(reference)}")
+    body = []
+    for row in rows:
+        cells = [_setting_cell(row["setting"], k) for k in keys]
+        cells.append(f"{row['n_complete']}/{row['n_runs']}")
+        for m in metrics:
+            cells.append(_cell(row, m))
+            if m.tested and reference:
+                p = row.get(f"p_{m.key}", math.nan)
+                cells.append(f"{fmt_p(p)} {row.get(f'mark_{m.key}', '')}".strip())
+        body.append(cells)
+    return header, body
+
+
+def _setting_cell(setting: dict, key: str) -> str:
+    value = str(setting.get(key, ""))
+    return display_name(value) if key == "algorithm" else value
+
+
+def _cell(row: dict, m: Metric) -> str:
+    if m.key in ("chosen_feasible", "has_front"):
+        vals = row["values"][m.key]
+        return f"{int(sum(vals))}/{len(vals)}"
+    return fmt_mean_std(row["values"][m.key], m.sci)
+
+
+def csv_rows(rows: list[dict], metrics: Sequence[Metric], keys: Sequence[str]) -> list[dict]:
+    """Flat numeric rows: setting keys, counts, ``<metric>_mean/_std/_n``, ``p_<metric>``."""
+    out = []
+    for row in rows:
+        flat = {k: row["setting"].get(k, "") for k in keys}
+        flat.update(n_complete=row["n_complete"], n_runs=row["n_runs"])
+        for m in metrics:
+            mean, std, n = row[m.key]
+            flat.update({f"{m.key}_mean": mean, f"{m.key}_std": std, f"{m.key}_n": n})
+            if f"p_{m.key}" in row:
+                flat[f"p_{m.key}"] = row[f"p_{m.key}"]
+                flat[f"mark_{m.key}"] = row[f"mark_{m.key}"]
+        out.append(flat)
+    return out
+
+
+def paper_comparison(rows: list[dict]) -> tuple[list[str], list[list[str]]]:
+    """Our Table 3 means beside the paper's single values, one line per source."""
+    header = ["algorithm", "source", *(h for _, h in TABLE3_COLUMNS)]
+    body = []
+    for row in rows:
+        algo = row["setting"].get("algorithm", "")
+        ours = [fmt_number(row[k][0], _sci(k)) for k, _ in TABLE3_COLUMNS]
+        body.append([label(row["setting"]), f"ours (mean of {row['n_complete']})", *ours])
+        if algo in PAPER_TABLE3:
+            paper = [fmt_number(v, _sci(k)) for (k, _), v in zip(TABLE3_COLUMNS,
+                                                                 PAPER_TABLE3[algo])]
+            body.append([display_name(algo), "paper", *paper])
+    return header, body
+
+
+def _sci(key: str) -> bool | None:
+    return None if "time" in key or key.startswith("M_") else True
+
+
+# ---- writing ----------------------------------------------------------------------------
+def to_markdown(header: Sequence[str], body: Sequence[Sequence[str]]) -> str:
+    def line(cells: Sequence[str]) -> str:
+        return "| " + " | ".join(str(c).replace("|", "\\|") for c in cells) + " |"
+    return "\n".join([line(header), line(["---"] * len(header)), *map(line, body)]) + "\n"
+
+
+def to_csv(rows: list[dict]) -> str:
+    if not rows:
+        return ""
+    fields: list[str] = []
+    for row in rows:
+        fields += [k for k in row if k not in fields]
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=fields)
+    writer.writeheader()
+    for row in rows:
+        writer.writerow({k: _csv_value(v) for k, v in row.items()})
+    return buf.getvalue()
+
+
+def _csv_value(v):
+    if isinstance(v, float):
+        return "" if not math.isfinite(v) else repr(v)
+    return v
+
+
+def write_table(out: Path, stem: str, title: str, header: Sequence[str],
+                body: Sequence[Sequence[str]], rows_csv: list[dict], note: str = "") -> None:
+    """``<stem>.csv`` (numbers) and ``<stem>.md`` (title, table, note)."""
+    atomic_write_text(out / f"{stem}.csv", to_csv(rows_csv))
+    text = f"## {title}\n\n{to_markdown(header, body)}"
+    if note:
+        text += f"\n{note.strip()}\n"
+    atomic_write_text(out / f"{stem}.md", text)
