@@ -106,6 +106,30 @@ def test_warm_start_same_quality_fewer_iterations(train_test, r2):
     assert r2_warm >= 0.9 and abs(r2_warm - r2_cold) < 0.01
 
 
+def test_refit_every_keeps_hyperparameters_between_optimisations(smooth3):
+    X, Y, f = smooth3
+    rng = np.random.default_rng(8)
+    model = GPSurrogate(refit_every=3)
+    stages, lengthscales = [], []
+    for _ in range(4):
+        model.fit(X, Y)
+        stages.append(model.fit_info["stage"])
+        lengthscales.append(model.model.covar_module.lengthscale.detach().clone())
+        new = rng.uniform(-1, 2, size=(3, 4))
+        X, Y = np.vstack([X, new]), np.vstack([Y, f(new)])
+    assert stages == ["mll", "kept_hypers", "kept_hypers", "mll"]
+    assert torch.equal(lengthscales[0], lengthscales[1])
+    assert torch.equal(lengthscales[0], lengthscales[2])
+    assert not torch.equal(lengthscales[2], lengthscales[3])
+    model = GPSurrogate(refit_every=3).fit(X, Y)
+    model.fit(X[:-3], Y[:-3])                            # kept hyperparameters: the GP
+    mean, _ = model.predict(X[-3:])                      # is conditioned on the data given
+    with torch.no_grad():
+        post = model.model.posterior(torch.as_tensor(X[-3:]))
+    np.testing.assert_allclose(mean, post.mean.numpy(), rtol=1e-9, atol=1e-9)
+    assert model.model.train_inputs[0].shape[-2] == len(X) - 3
+
+
 def test_warm_start_skipped_when_shapes_change(smooth3):
     X, Y, _ = smooth3
     model = GPSurrogate().fit(X, Y)
@@ -181,6 +205,7 @@ def test_bad_data_and_unfitted_use(smooth3):
     ({"noise_floor": 0.5}, "noise_floor"), ({"max_iter": 0}, "max_iter"),
     ({"max_attempts": 0}, "max_attempts"), ({"fit_mode": "joint"}, "fit_mode"),
     ({"seed": -3}, "seed"), ({"max_iter": True}, "max_iter"),
+    ({"refit_every": 0}, "refit_every"), ({"num_threads": -1}, "num_threads"),
 ])
 def test_bad_arguments_name_the_parameter(kwargs, name):
     with pytest.raises(ValueError, match=rf"^{name}="):

@@ -28,7 +28,9 @@ Choices (see docs/surrogates.md):
   standardised scale; BoTorch's own floor is 1e-4, ours 1e-6 lets a well-resolved
   function be interpolated closely).
 * Warm start: the last successful hyperparameters are the L-BFGS-B start of the next fit
-  when the shapes match; ``max_iter`` caps the iterations.
+  when the shapes match; ``max_iter`` caps the iterations; with ``refit_every`` = k the
+  hyperparameters are re-optimised on every k-th fit only, and the fits in between
+  condition the GP with the kept hyperparameters on the new data.
 * Prediction: the posterior mean and variance (Rasmussen & Williams 2006, Eqs. 2.25-2.26)
   are computed from the Cholesky factor cached at fit time, with the model's own kernel
   module, without forming a q x q covariance.
@@ -106,6 +108,9 @@ class GPSurrogate(Surrogate):
         noise_floor: Lower bound of the noise variance, standardised units, in (0, 0.1].
         warm_start: Start each fit from the previous fit's hyperparameters.
         max_iter: Cap on L-BFGS-B iterations per fit (>= 1).
+        refit_every: Re-optimise the hyperparameters on every k-th fit of this object; the
+            fits in between keep the last learned hyperparameters and only condition on the
+            new data (one Cholesky). 1 = optimise on every fit.
         max_attempts: BoTorch fit attempts (restarts from seeded prior samples), >= 1.
         fit_mode: ``"per_output"``, ``"batched"`` or ``"model_list"`` (module docstring).
         rbf_fallback: Fall back to :class:`RBFSurrogate` if every GP stage fails.
@@ -116,7 +121,8 @@ class GPSurrogate(Surrogate):
     name = "gp"
 
     def __init__(self, kernel: str = "rbf", noise_floor: float = 1e-6, warm_start: bool = True,
-                 max_iter: int = 200, max_attempts: int = 2, fit_mode: str = "per_output",
+                 max_iter: int = 200, refit_every: int = 1, max_attempts: int = 2,
+                 fit_mode: str = "per_output",
                  rbf_fallback: bool = True, seed: int = 0, num_threads: int = 1) -> None:
         if kernel not in KERNELS:
             raise ValueError(f"kernel={kernel!r} is invalid: must be one of {KERNELS}")
@@ -126,6 +132,8 @@ class GPSurrogate(Surrogate):
             raise ValueError(f"noise_floor={noise_floor!r} is invalid: must be in (0, 0.1]")
         _check_int("max_iter", max_iter, 1)
         _check_int("max_attempts", max_attempts, 1)
+        _check_int("refit_every", refit_every, 1)
+        self.refit_every, self._since_opt = refit_every, 0
         _check_int("seed", seed, 0)
         _check_int("num_threads", num_threads, 0)
         self.num_threads = num_threads
@@ -160,12 +168,36 @@ class GPSurrogate(Surrogate):
         start = time.perf_counter()
         self._model, self._caches, self._fallback, self._d = None, [], None, None
         Xt, Yt = torch.as_tensor(X, dtype=_DTYPE), torch.as_tensor(Y, dtype=_DTYPE)
+        if not self._keep_hyperparameters(Xt, Yt):
+            self._fit_stages(X, Y, Xt, Yt)
+        self._d = X.shape[1]
+        self.fit_info["seconds"] = time.perf_counter() - start
+
+    def _keep_hyperparameters(self, X: torch.Tensor, Y: torch.Tensor) -> bool:
+        """Between re-optimisations (``refit_every`` > 1): condition on the new data only."""
+        if self._warm is None or self._since_opt + 1 >= self.refit_every:
+            return False
+        try:
+            self._fit_stage(X, Y, self.noise_floor, optimise=False, warm=True)
+        except _FIT_ERRORS as exc:
+            log.warning("GP update with kept hyperparameters failed (%s); re-optimising",
+                        type(exc).__name__)
+            return False
+        if not self.fit_info["warm_started"]:  # d or m changed: the old values do not fit
+            return False
+        self._since_opt += 1
+        self.fit_info.update(stage="kept_hypers", noise_floor=self.noise_floor)
+        return True
+
+    def _fit_stages(self, X: np.ndarray, Y: np.ndarray, Xt: torch.Tensor,
+                    Yt: torch.Tensor) -> None:
+        """The fallback chain of the module docstring."""
         raised = max(100.0 * self.noise_floor, 1e-4)
         stages = (("mll", self.noise_floor, True), ("noise_raised", raised, True),
                   ("default_hypers", raised, False))
         for stage, floor, optimise in stages:
             try:
-                self._fit_stage(Xt, Yt, floor, optimise, warm=stage == "mll")
+                self._fit_stage(Xt, Yt, floor, optimise, warm=stage == "mll" and self.warm_start)
             except _FIT_ERRORS as exc:
                 log.warning("GP fit stage %r failed (%s: %s); trying the next fallback",
                             stage, type(exc).__name__, str(exc).splitlines()[0][:200])
@@ -173,11 +205,10 @@ class GPSurrogate(Surrogate):
             self.fit_info.update(stage=stage, noise_floor=floor)
             if stage == "mll":
                 self._warm = self._hyperparameters()
+            self._since_opt = 0
             break
         else:
             self._fit_rbf(X, Y)
-        self._d = X.shape[1]
-        self.fit_info["seconds"] = time.perf_counter() - start
 
     def predict(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         X = self.check_query_data(X, self._d)
@@ -202,7 +233,7 @@ class GPSurrogate(Surrogate):
             # Jitter notices and BoTorch's input checks are expected on degenerate data.
             warnings.simplefilter("ignore")
             model = self._build(X, Y, floor)
-            warmed = warm and self.warm_start and self._load_warm(model)
+            warmed = warm and self._load_warm(model)
             self.fit_info = {"warm_started": warmed, "iterations": []}
             if optimise and self.fit_mode == "per_output" and Y.shape[1] > 1:
                 self._optimise_per_output(model, X, Y, floor)
