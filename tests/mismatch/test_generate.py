@@ -16,6 +16,7 @@ from tmopt.mismatch.generate import (
     Settings,
     _clean_reference,
     calibrated_injection,
+    calibration_table,
     detectability,
     excitation,
     generate_recording,
@@ -311,3 +312,21 @@ def test_settings_reject_bad_values():
         Settings(stiffness=(1e-7, 1e-7))
     with pytest.raises(ValueError, match="seed"):
         generate_recording((), seed=-1)
+
+
+@pytest.mark.slow
+def test_calibration_table_is_reproduced():
+    # the whole study behind MAGNITUDES (about 2 minutes on 2 cores)
+    for row in calibration_table():
+        cal = MAGNITUDES[row["effect"]]
+        for key in ("channel", "options", "near", "large", "snr_near", "snr_large", "family"):
+            assert row[key] == cal[key], (row["effect"], key)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [201, 303, 405])
+def test_near_magnitudes_stay_near_the_limit_at_other_seeds(seed):
+    clean = _clean_reference(seed, {})
+    for name in EFFECT_NAMES:
+        got = detectability(calibrated_injection(name, "near"), seed, {}, clean)["snr"]
+        assert 3.0 < got < 8.0, (name, got)
