@@ -173,6 +173,15 @@ class _Group:
         x = np.column_stack([self.whiten(c.values).ravel() for c in cols])
         return x - self.q @ (self.q.T @ x)
 
+    def estimate(self, col: Column) -> tuple[float, float]:
+        """Coefficient and standard error of one added column."""
+        xp = self.perp([col])[:, 0]
+        nn = float(xp @ xp)
+        if nn == 0:
+            return 0.0, math.inf
+        s2 = self.rss0 / self.n
+        return float(xp @ self.r0) / nn, math.sqrt(s2 / nn)
+
     def glr(self, cols: list[Column]) -> float:
         xp = self.perp(cols)
         coef, *_ = np.linalg.lstsq(xp, self.r0, rcond=None)
@@ -208,6 +217,13 @@ class _IVGroup:
         self.target, self.cols, self.whiten = target, cols, whiten
         self.n = target.size
 
+    def estimate(self, col: Column) -> tuple[float, float]:
+        """IV coefficient and standard error of one added column (inf: not excited)."""
+        if col.instrument is not None and not np.any(col.instrument):
+            return 0.0, math.inf
+        fit = solve_iv(self.target, self.cols + [col], self.whiten)
+        return float(fit.coef[-1]), float(fit.std()[-1])
+
     def glr(self, cols: list[Column]) -> float:
         if all(c.instrument is not None and not np.any(c.instrument) for c in cols):
             return 0.0  # no excitation on the source axis: nothing to test
@@ -215,6 +231,17 @@ class _IVGroup:
         k = len(cols)
         th, cov = fit.coef[-k:], fit.cov[-k:, -k:]
         return float(th @ np.linalg.pinv(cov) @ th)
+
+
+def _joint(cand: Candidate, groups: dict) -> float:
+    """LR of one parameter seen in both groups (an accelerometer error breaks Eq. 10 *and*
+    the kinematics): for two Gaussian estimates of the same value, the LR against zero is
+    that of their inverse-variance mean, so a twin that sees nothing vetoes the candidate."""
+    b1, s1 = groups["equation"].estimate(cand.columns[0])
+    b2, s2 = groups["kinematic"].estimate(cand.twin)
+    w1, w2 = 1 / s1**2, (0.0 if math.isinf(s2) else 1 / s2**2)
+    mean = (w1 * b1 + w2 * b2) / (w1 + w2)
+    return float(mean**2 * (w1 + w2))
 
 
 def evaluate(data: Data, basis: np.ndarray, state: State, settings: Settings,
@@ -236,7 +263,7 @@ def evaluate(data: Data, basis: np.ndarray, state: State, settings: Settings,
                     out.append(_colored_noise_eval(cand, state, settings.ar_max))
                 continue
             g = groups[cand.group]
-            lam = g.glr(cand.columns)
+            lam = g.glr(cand.columns) if cand.twin is None else _joint(cand, groups)
             dof = len(cand.columns)
             p = min(1.0, cand.trials * float(stats.chi2.sf(lam, dof)))
             out.append(Evaluation(cand, lam, dof, g.n, p))
@@ -356,6 +383,9 @@ def _add(data, basis, state: State, ev: Evaluation, settings: Settings) -> State
     cand.columns = new
     if cand.group == "equation":
         eq_x = eq_x + new
+        if cand.twin is not None and np.any(cand.twin.instrument):
+            kin_x = kin_x + [Column(f"{cand.twin.name}{tag}", cand.twin.values,
+                                    cand.twin.instrument)]  # fmt: skip
     else:
         kin_x = kin_x + new
     return fit_state(data, basis, eq_x, kin_x, state.ar_order, settings)

@@ -71,6 +71,7 @@ class Candidate:
     fixed: dict = field(default_factory=dict)  # searched (profiled) parameters
     derived: dict = field(default_factory=dict)  # how to report a combination of coefs
     text: str = ""
+    twin: Column | None = None  # the same parameter's prediction in the kinematic group
 
     @property
     def key(self) -> str:
@@ -125,16 +126,20 @@ class _Blank(dict):
         return "{" + key + "}"
 
 
-def _kin_candidate(effect: Effect, channel: str, param: str, ctx: Context, a: int, b: int,
-                   text: str) -> Candidate:  # fmt: skip
-    """Kinematic regressor ``h^2 (acc_b,n + acc_b,n-1)/2`` on readout channel a, with its
-    excitation-tone part as instrument (closed-loop readout noise is in ``acc_b``)."""
+def _kin_column(name: str, ctx: Context, a: int, b: int, sign: float = 1.0) -> Column:
+    """Kinematic regressor ``sign h^2 (acc_b,n + acc_b,n-1)/2`` on readout channel a, with
+    its excitation-tone part as instrument (closed-loop readout noise is in ``acc_b``)."""
     d = ctx.data
     arr = np.zeros((4, d.n - 2))
     inst = np.zeros((4, d.n - 2))
-    arr[a] = kinematic_series(d, b)
+    arr[a] = sign * kinematic_series(d, b)
     inst[a] = tone_instrument(arr[a], d.time[1:-1], d.tones(b))
-    col = Column(f"{effect.name}[{channel}]", arr, inst)
+    return Column(name, arr, inst)
+
+
+def _kin_candidate(effect: Effect, channel: str, param: str, ctx: Context, a: int, b: int,
+                   text: str) -> Candidate:  # fmt: skip
+    col = _kin_column(f"{effect.name}[{channel}]", ctx, a, b)
     return Candidate(effect.name, channel, "kinematic", [param], ["1"], [col], 1e-2, text=text)
 
 
@@ -316,6 +321,8 @@ class SensingCrossTalk(Effect):
                 ch = f"{AXES[a]}<-{AXES[b]}"
                 c = _eq_candidate(self, f"acc:{ch}", "c", "1", d.acc[b], ctx, a, 1e-2)
                 c.text = self.explanation.format(kind="acceleration", a=AXES[a], b=AXES[b])
+                # an accelerometer error also breaks the kinematics: D_a = -c h^2 acc_b
+                c.twin = _kin_column(f"{c.key}:kin", ctx, a, b, -1.0)
                 out.append(c)
                 out.append(_kin_candidate(
                     self, f"disp:{ch}", "c", ctx, a, b,
@@ -340,6 +347,7 @@ class ReadoutScale(Effect):
             c = _eq_candidate(self, f"acc:{a}", "e", "1", d.acc[i], ctx, i, 1e-2)
             c.derived = {"e": ("ratio", None)}  # regressor is the *scaled* measured acc
             c.text = self.explanation.format(kind="acceleration", a=a, where=TMS[a])
+            c.twin = _kin_column(f"{c.key}:kin", ctx, i, i, -1.0)  # D_a = -e h^2 acc_a
             out.append(c)
             out.append(_kin_candidate(
                 self, f"disp:{a}", "e", ctx, i, i,

@@ -96,14 +96,19 @@ def time_windows(white: np.ndarray, time: np.ndarray, fs: float, alpha: float,
     total = sum(t[0].size for t in tests)
     if not total:
         return [], 1.0
-    out, min_p = [], 1.0
+    flagged, min_p = [], 1.0  # per scale, finest first
     for p, t0, t1 in tests:
         padj = np.minimum(p * total, 1.0)
         min_p = min(min_p, float(padj.min()))
-        out.extend(_merge(padj < alpha, t0, t1))
-    out.sort()
+        flagged.append(_merge(padj < alpha, t0, t1))
+    # a coarse window that holds a finer flagged window is reported by the finer one
+    kept: list[list[float]] = []
+    for k, wins in enumerate(flagged):
+        finer = [w for f in flagged[:k] for w in f]
+        kept += [w for w in wins if not any(w[0] <= f[0] and f[1] <= w[1] for f in finer)]
+    kept.sort()
     merged: list[list[float]] = []
-    for a, b in out:
+    for a, b in kept:
         if merged and a <= merged[-1][1]:
             merged[-1][1] = max(merged[-1][1], b)
         else:

@@ -1,0 +1,46 @@
+"""python -m tmopt.mismatch RECORDING --out DIR: files, exit codes, one-line errors."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from tmopt.mismatch.__main__ import main
+from tmopt.mismatch.recording import recording_from_simulation, write_recording
+from tmopt.physics import MultiSine, SimulationConfig, simulate
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    res = simulate(MultiSine(5e-5, 2 * math.pi / 300), MultiSine(3e-5, 2 * math.pi / 500),
+                   SimulationConfig(duration=300.0), seed=41)  # fmt: skip
+    folder = tmp_path_factory.mktemp("rec")
+    rec = recording_from_simulation(res, 0, description="clean cli test")
+    write_recording(rec, folder / "clean.h5")
+    write_recording(rec, folder / "clean.csv")
+    return folder
+
+
+@pytest.mark.parametrize("name", ["clean.h5", "clean.csv"])
+def test_cli_writes_the_report(recording, tmp_path, capsys, name):
+    out = tmp_path / "out"
+    assert main([str(recording / name), "--out", str(out)]) == 0
+    rep = json.loads((out / "report.json").read_text())
+    assert rep["mismatch_detected"] is False
+    assert (out / "report.md").exists() and (out / "residual_psd.png").exists()
+    assert "no significant mismatch" in capsys.readouterr().out
+
+
+def test_cli_reports_a_bad_file_in_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.h5"
+    bad.write_text("not hdf5")
+    assert main([str(bad), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error:") and "bad.h5" in err[0]
+
+
+def test_cli_rejects_bad_options(recording, tmp_path, capsys):
+    assert main([str(recording / "clean.h5"), "--out", str(tmp_path), "--alpha", "2"]) == 2
+    assert "alpha" in capsys.readouterr().err

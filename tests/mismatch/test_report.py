@@ -1,0 +1,68 @@
+"""report.json follows the documented schema; report.md and the plots are written."""
+
+from __future__ import annotations
+
+import copy
+import json
+
+import pytest
+from test_diagnose import REF1, REF2
+from test_effects import add_force  # same folder (no package): pytest puts it on sys.path
+
+from tmopt.mismatch.diagnose import diagnose
+from tmopt.mismatch.report import conclusion, write_report
+
+
+@pytest.fixture(scope="module")
+def gain_report(tmp_path_factory):
+    from tmopt.mismatch.fit import data_from_result
+    from tmopt.physics import SimulationConfig, simulate
+
+    d = data_from_result(simulate(REF1, REF2, SimulationConfig(duration=600.0), seed=31))
+    d = copy.deepcopy(d)
+    add_force(d, 1, 4e-4 * d.force[1])
+    out = tmp_path_factory.mktemp("report")
+    return write_report(diagnose(d), out), out
+
+
+def test_report_json_has_the_schema_keys(gain_report):
+    rep, out = gain_report
+    on_disk = json.loads((out / "report.json").read_text())
+    assert on_disk == rep
+    assert isinstance(rep["mismatch_detected"], bool) and isinstance(rep["unexplained"], bool)
+    assert set(rep["locations"]) == {"frequency_hz", "time_s", "channels"}
+    for e in rep["effects"]:
+        assert {"name", "channel", "parameters", "uncertainties", "evidence",
+                "explanation"} <= set(e)  # fmt: skip
+        assert {"delta_bic", "p_value", "p_holm"} <= set(e["evidence"])
+    for when in ("before", "after"):
+        assert {"residual_rms", "bic", "whiteness_p"} <= set(rep["fit"][when])
+        assert {"k1xx", "k2xx"} <= set(rep["stiffness"][when])
+    assert isinstance(rep["not_identifiable"], list)
+
+
+def test_the_gain_and_its_improvement_are_reported(gain_report):
+    rep, out = gain_report
+    (eff,) = [e for e in rep["effects"] if e["name"] == "actuation_gain"]
+    assert eff["channel"] == "x2"
+    g, sg = eff["parameters"]["g"], eff["uncertainties"]["g"]
+    assert abs(g - 4e-4) < 4.5 * sg
+    assert rep["fit"]["after"]["bic"] < rep["fit"]["before"]["bic"]
+    assert rep["fit"]["after"]["residual_rms"] < rep["fit"]["before"]["residual_rms"]
+    assert abs(rep["stiffness"]["after"]["k2xx"] - 1e-7) < abs(rep["stiffness"]["before"]["k2xx"]
+                                                             - 1e-7)  # fmt: skip
+    md = (out / "report.md").read_text()
+    assert "actuation_gain" in md and rep["conclusion"] in md
+    assert (out / "residual_psd.png").stat().st_size > 1000
+    assert (out / "residual_time.png").stat().st_size > 1000
+
+
+def test_conclusion_wording():
+    nowhere = {"frequency_hz": [], "time_s": [], "channels": []}
+    base = {"mismatch_detected": False, "unexplained": False, "effects": [],
+            "locations_unexplained": nowhere}  # fmt: skip
+    assert conclusion(base).startswith("no significant mismatch")
+    loc = {"frequency_hz": [[0.1, 0.2]], "time_s": [], "channels": ["y2"]}
+    text = conclusion({**base, "mismatch_detected": True, "unexplained": True,
+                       "locations_unexplained": loc})  # fmt: skip
+    assert text.startswith("unexplained mismatch at f in [0.1, 0.2] Hz") and "y2" in text
