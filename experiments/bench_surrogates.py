@@ -155,12 +155,17 @@ def ratios(n: int = 300, d: int = 18, m: int = 4) -> None:
     print(f"\n## Ratios against references (n={n}, d={d}, m={m}, same data, this process)\n")
     X, Y = dataset(n, d, m)
     Q = queries(d, 50)
-    fit_s = {}
-    for mode in ("per_output", "batched", "model_list"):
-        gp = GPSurrogate(fit_mode=mode, warm_start=False)
-        fit_s[mode] = seconds(lambda gp=gp: gp.fit(X, Y))
-        print(f"cold fit {mode:10s}: {fit_s[mode]:6.2f} s, L-BFGS-B iterations "
-              f"{gp.fit_info['iterations']}", flush=True)
+    GPSurrogate().fit(X[:50], Y[:50])  # warm-up (imports, first-call costs)
+    fit_s, its = {}, {}
+    for _ in range(2):  # interleaved repeats: the load of the machine drifts
+        for mode in ("per_output", "batched", "model_list"):
+            gp = GPSurrogate(fit_mode=mode, warm_start=False)
+            t = seconds(lambda gp=gp: gp.fit(X, Y))
+            best = fit_s.get(mode, t)
+            fit_s[mode] = T(min(best.wall, t.wall), min(best.cpu, t.cpu))
+            its[mode] = gp.fit_info["iterations"]
+    for mode, t in fit_s.items():
+        print(f"cold fit {mode:10s}: {t:6.2f} s (best of 2), L-BFGS-B iterations {its[mode]}")
     base = fit_s["per_output"]
     print(f"ratio batched L-BFGS-B / per-output fit: {ratio(fit_s['batched'], base)}")
     print(f"ratio ModelListGP (m separate fits) / per-output fit: "
@@ -175,6 +180,9 @@ def ratios(n: int = 300, d: int = 18, m: int = 4) -> None:
           f" LOVE {love:.2f}, predict_mean {mean_only:.2f}")
     print(f"ratio cached / posterior exact: {ratio(fast, exact)}; cached / LOVE: "
           f"{ratio(fast, love)}; predict_mean / predict: {ratio(mean_only, fast)}")
+    listed = per_batch_ms(GPSurrogate(fit_mode="model_list").fit(X, Y).predict, Q)
+    print(f"predict per 100 points, ModelListGP {listed:.2f} ms; ratio batched model / "
+          f"ModelListGP: {ratio(fast, listed)}")
     threads(X, Y, Q)
 
 
@@ -205,17 +213,28 @@ def threads(X, Y, Q) -> None:
 
 
 def mgsaea(n: int = 300, d: int = 18, m: int = 4, calls: int = 2000) -> None:
-    print(f"\n## One MGSAEA iteration (n={n}, d={d}, m={m}): warm refit + {calls} x "
-          f"100-point predictions (wall / cpu s)\n")
+    print(f"\n## One MGSAEA iteration (n={n}, d={d}, m={m}), wall / cpu s\n")
     gp = GPSurrogate(warm_start=True)
     fit = warm_refit(gp, n, d, m)
+    its = gp.fit_info["iterations"]
+    kept_gp = GPSurrogate(refit_every=2)
+    kept = warm_refit(kept_gp, n, d, m)  # fit on n-5 optimises, the refit on n keeps
+    assert kept_gp.fit_info["stage"] == "kept_hypers"
     Q = queries(d, calls)
     with_std = seconds(lambda: [gp.predict(x) for x in Q])
     mean_only = seconds(lambda: [gp.predict_mean(x) for x in Q])
-    print(f"warm refit {fit:.2f} (iterations {gp.fit_info['iterations']}); {calls} x predict "
-          f"{with_std:.2f}; {calls} x predict_mean {mean_only:.2f}")
-    print(f"estimate one iteration: fit + predict = {fit + with_std:.2f} s; "
-          f"fit + predict_mean = {fit + mean_only:.2f} s (target < 2 s)")
+    ni = 11 * d - 1  # mgsaea.py: wmax = 20 generations of ni offspring + the population
+    Qa = [np.random.default_rng(2).random((ni, d)) for _ in range(21)]
+    actual = seconds(lambda: [gp.predict_mean(x) for x in Qa])
+    print(f"warm refit {fit:.2f} (L-BFGS-B iterations {its}); refit with kept "
+          f"hyperparameters {kept:.3f}")
+    print(f"{calls} x predict(100 points) {with_std:.2f}; {calls} x predict_mean(100 points) "
+          f"{mean_only:.2f}; 21 x predict_mean({ni} points) {actual:.3f}")
+    print(f"estimate, as briefed (fit + {calls} x 100-point predict_mean): "
+          f"{fit + mean_only:.2f} s (with std: {fit + with_std:.2f} s); target < 2 s")
+    print(f"estimate, as mgsaea.py calls it (fit + 21 x {ni}-point predict_mean): "
+          f"{fit + actual:.2f} s; with refit_every=5 (1 optimised + 4 kept fits, "
+          f"averaged): {(fit + kept.scaled(4)).scaled(0.2) + actual:.2f} s")
 
 
 def accuracy() -> None:
@@ -225,6 +244,7 @@ def accuracy() -> None:
              ("Rosenbrock [-2.048, 2.048]^10 (full)", Rosenbrock(n_var=10), -2.048, 2.048),
              ("Ackley [-32.768, 32.768]^10 (full)", Ackley(n_var=10), -32.768, 32.768)]
     models = {"GP rbf": lambda: GPSurrogate(), "GP matern52": lambda: GPSurrogate("matern52"),
+              "GP rbf floor 1e-4 (BoTorch's)": lambda: GPSurrogate(noise_floor=1e-4),
               "RBF cubic/all": lambda: RBFSurrogate(),
               "RBF gaussian/all": lambda: RBFSurrogate("gaussian"),
               "RBF multiquadric/all": lambda: RBFSurrogate("multiquadric"),

@@ -212,6 +212,17 @@ def test_bad_arguments_name_the_parameter(kwargs, name):
         GPSurrogate(**kwargs)
 
 
+@pytest.mark.parametrize("kernel", ["rbf", "matern52"])
+def test_botorch_model_supports_subset_output(smooth3, kernel):
+    """qLogNEHVI-style reuse: the BoTorch model can be cut down to some outputs."""
+    X, Y, _ = smooth3
+    model = GPSurrogate(kernel=kernel, max_iter=30).fit(X, Y)
+    sub = model.model.subset_output([0, 2])
+    with torch.no_grad():
+        mean = sub.posterior(torch.as_tensor(X[:5] + 0.1)).mean.numpy()
+    np.testing.assert_allclose(mean, model.predict(X[:5] + 0.1)[0][:, [0, 2]], rtol=1e-9)
+
+
 def test_matern_kernel_fits(smooth3, r2):
     X, Y, f = smooth3
     model = GPSurrogate(kernel="matern52").fit(X, Y)

@@ -51,6 +51,7 @@ import gpytorch
 import numpy as np
 import torch
 from botorch.exceptions.errors import ModelFittingError
+from botorch.exceptions.warnings import InputDataWarning, OptimizationWarning
 from botorch.fit import fit_gpytorch_mll
 from botorch.models import ModelListGP, SingleTaskGP
 from botorch.models.transforms import Normalize
@@ -61,6 +62,7 @@ from gpytorch.likelihoods import GaussianLikelihood
 from gpytorch.mlls import ExactMarginalLogLikelihood, SumMarginalLogLikelihood
 from gpytorch.priors import LogNormalPrior
 from linear_operator.utils.cholesky import psd_safe_cholesky
+from linear_operator.utils.warnings import NumericalWarning
 
 from tmopt.surrogates.base import Surrogate, SurrogateError, torch_threads
 from tmopt.surrogates.rbf import RBFSurrogate
@@ -230,8 +232,10 @@ class GPSurrogate(Surrogate):
     def _fit_stage(self, X: torch.Tensor, Y: torch.Tensor, floor: float, optimise: bool,
                    warm: bool) -> None:
         with gpytorch.settings.max_cholesky_size(_CHOLESKY_LIMIT), warnings.catch_warnings():
-            # Jitter notices and BoTorch's input checks are expected on degenerate data.
-            warnings.simplefilter("ignore")
+            # Expected on degenerate data (added jitter, unscaled-input checks) or a capped
+            # L-BFGS-B run; real failures raise and are logged by the fallback chain.
+            for category in (NumericalWarning, InputDataWarning, OptimizationWarning):
+                warnings.simplefilter("ignore", category)
             model = self._build(X, Y, floor)
             warmed = warm and self._load_warm(model)
             self.fit_info = {"warm_started": warmed, "iterations": []}
