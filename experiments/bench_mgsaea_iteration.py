@@ -20,6 +20,7 @@ run so the numbers can be judged.
 
 Usage:
     python experiments/bench_mgsaea_iteration.py [--n 300] [--iters 4] [--surrogate gp]
+        [--stage 1|2] [--gp max_iter=30] [--gp refit_every=5] [--reference free|none]
 """
 
 from __future__ import annotations
@@ -78,13 +79,13 @@ class Free(Surrogate):
         return mean, np.zeros_like(mean)
 
 
-def make_factory(kind: str, gp_max_iter: int | None = None):
+def make_factory(kind: str, gp_options: dict | None = None):
     if kind == "free":
         return Free
     if kind == "gp":
         from tmopt.surrogates.gp import GPSurrogate
 
-        return GPSurrogate if gp_max_iter is None else partial(GPSurrogate, max_iter=gp_max_iter)
+        return partial(GPSurrogate, **(gp_options or {}))
     if kind == "rbf":
         from tmopt.surrogates.rbf import RBFSurrogate
 
@@ -93,10 +94,10 @@ def make_factory(kind: str, gp_max_iter: int | None = None):
 
 
 def bench(kind: str, n: int, iters: int, stage: int, seed: int,
-          gp_max_iter: int | None = None) -> list[dict]:
+          gp_options: dict | None = None) -> list[dict]:
     problem = PymooBenchmark("mw3", n_var=18, constraint_groups="split")
     clock = {"fit": 0.0, "predict": 0.0, "n_predict": 0}
-    inner = make_factory(kind, gp_max_iter)
+    inner = make_factory(kind, gp_options)
     extra = {"gap": 1, "threshold": 1e9} if stage == 2 else {}
     alg = MGSAEAIPC(n_init=n, surrogate=partial(lambda: Timed(inner(), clock)), **extra)
     budget = n + alg.mu * iters
@@ -141,13 +142,16 @@ def main() -> None:
     ap.add_argument("--stage", type=int, default=1, choices=[1, 2])
     ap.add_argument("--reference", default="free", choices=["free", "none"])
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--gp-max-iter", type=int, default=None,
-                    help="cap on L-BFGS-B iterations per GP fit (default: the GP's own)")
+    ap.add_argument("--gp", action="append", default=[], metavar="KEY=INT",
+                    help="GPSurrogate option, e.g. --gp max_iter=30 --gp refit_every=5")
     args = ap.parse_args()
     print(f"MGSAEA-IPC iteration overhead: n={args.n}, D=18, wmax=20, mu=5, stage {args.stage}; "
           f"torch threads={torch.get_num_threads()}, cores={os.cpu_count()}, "
           f"load average={os.getloadavg()[0]:.2f}")
-    rows = bench(args.surrogate, args.n, args.iters, args.stage, args.seed, args.gp_max_iter)
+    gp_options = {k: int(v) for k, v in (o.split("=", 1) for o in args.gp)}
+    if gp_options:
+        print(f"GPSurrogate options: {gp_options}")
+    rows = bench(args.surrogate, args.n, args.iters, args.stage, args.seed, gp_options)
     show(f"surrogate={args.surrogate}", rows)
     cold, warm = rows[0]["ask"], float(np.median([r["ask"] for r in rows[1:]] or [np.nan]))
     warm_cpu = float(np.median([r["cpu_ask"] for r in rows[1:]] or [np.nan]))
