@@ -57,8 +57,9 @@ TABLE3_SETTING = {"scheme": "B", "problem.n_freq": "3"}
 TEST_NOTE = ("p: two-sided Wilcoxon rank-sum test (scipy.stats.mannwhitneyu, exact for "
              "small samples without ties) over seeds against the reference's runs in the same "
              "setting; + / - / = : significantly better / worse / no significant difference "
-             "at 0.05 (by the medians). n/a: fewer than 2 complete runs on a side, or no "
-             "reference runs in that setting.")
+             "at 0.05 (by the medians). †: the reference's runs at another budget (it has "
+             "none at this one). n/a: fewer than 2 complete runs on a side, or no "
+             "reference runs to compare with.")
 
 
 def collect(sweep_dir: Path, out: Path | None = None, reference: str = DEFAULT_REFERENCE,
@@ -127,9 +128,20 @@ def _write_status(runs: list[RunRecord], duplicates: list[RunRecord], out: Path)
 def _reason(run: RunRecord) -> str:
     if run.failure:
         return f"{run.failure.get('error', 'error')}: {run.failure.get('message', '')}"
+    last = _last_log_line(run.path / "tmopt.log")
+    tail = f"; last log line: {last}" if last else ""
     if run.n_evals is None:
-        return "no archive yet: the run never evaluated a design (or is starting)"
-    return "no complete metrics.json: interrupted or still running"
+        return "no archive yet: the run never evaluated a design (or is starting)" + tail
+    return ("no complete metrics.json: interrupted, still running, or stopped by an "
+            "unexpected error (the sweep's console shows its traceback)" + tail)
+
+
+def _last_log_line(path: Path) -> str:
+    try:
+        lines = [ln.strip() for ln in path.read_text().splitlines() if ln.strip()]
+    except OSError:
+        return ""
+    return lines[-1][-200:] if lines else ""
 
 
 # ---- stiffness --------------------------------------------------------------------------

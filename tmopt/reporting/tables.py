@@ -21,6 +21,8 @@ from tmopt.reporting.runs import COMPLETE, RunRecord
 from tmopt.reporting.stats import fmt_mean_std, fmt_number, fmt_p, mark, mean_std, rank_sum
 
 Setting = tuple[tuple[str, str], ...]
+#: Keys in which a reference setting may differ when none matches exactly (flagged: †).
+RELAXED_KEYS = ("budget",)
 
 
 @dataclass(frozen=True)
@@ -97,6 +99,7 @@ def summarise(groups: dict[Setting, list[RunRecord]], metrics: Sequence[Metric],
         for m in metrics:
             mean, std, n = mean_std(values[setting][m.key])
             row[m.key] = (mean, std, n)
+            row["reference"] = dict(ref) if ref else None
             if m.tested:
                 p = rank_sum(values[setting][m.key], values[ref][m.key]) if ref else math.nan
                 same = ref == setting
@@ -115,10 +118,22 @@ def _complete(runs: list[RunRecord]) -> list[RunRecord]:
 
 def _reference_setting(setting: Setting, reference: str | None,
                        groups: dict[Setting, list[RunRecord]]) -> Setting | None:
+    """The reference's setting with the same values; failing that, at another budget.
+
+    The second case (e.g. an EA at 10 000 evaluations against the reference at 300) is
+    taken only when the reference has exactly one such setting; the row is then flagged.
+    """
     if not reference:
         return None
     target = tuple((k, reference if k == "algorithm" else v) for k, v in setting)
-    return target if target in groups else None
+    if target in groups:
+        return target
+    loose = [s for s in groups if _same_but(s, target, RELAXED_KEYS)]
+    return loose[0] if len(loose) == 1 else None
+
+
+def _same_but(a: Setting, b: Setting, keys: tuple[str, ...]) -> bool:
+    return len(a) == len(b) and all(x == y or x[0] in keys for x, y in zip(a, b))
 
 
 # ---- formatting -------------------------------------------------------------------------
@@ -148,9 +163,16 @@ def markdown_rows(rows: list[dict], metrics: Sequence[Metric], keys: Sequence[st
             cells.append(_cell(row, m))
             if m.tested and reference:
                 p = row.get(f"p_{m.key}", math.nan)
-                cells.append(f"{fmt_p(p)} {row.get(f'mark_{m.key}', '')}".strip())
+                flag = "†" if _relaxed(row) and math.isfinite(p) else ""
+                cells.append(f"{fmt_p(p)}{flag} {row.get(f'mark_{m.key}', '')}".strip())
         body.append(cells)
     return header, body
+
+
+def _relaxed(row: dict) -> bool:
+    ref = row.get("reference")
+    return bool(ref) and any(ref.get(k) != v for k, v in row["setting"].items()
+                             if k != "algorithm")
 
 
 def _setting_cell(setting: dict, key: str) -> str:
