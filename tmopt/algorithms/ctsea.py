@@ -110,7 +110,9 @@ def _grow_by_cosine(sim: np.ndarray, chosen: np.ndarray, target: int) -> np.ndar
     return chosen
 
 
-def update_ref_points(archive: np.ndarray, W: np.ndarray, bounds: np.ndarray | None):
+def update_ref_points(
+    archive: np.ndarray, W: np.ndarray, bounds: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """AR-MOEA's reference-point adaptation; returns ``(archive, ref_points, bounds)``.
 
     ``bounds`` holds the ideal point (row 0) and the upper bound of the normalisation
@@ -179,7 +181,8 @@ def last_front_selection(dist: np.ndarray, k: int) -> np.ndarray:
     return remain
 
 
-def armoea_selection(F: np.ndarray, ref: np.ndarray, bounds: np.ndarray, n: int):
+def armoea_selection(F: np.ndarray, ref: np.ndarray, bounds: np.ndarray,
+                     n: int) -> tuple[np.ndarray, np.ndarray]:
     """AR-MOEA's environmental selection on objectives only; returns ``(indices, bounds)``."""
     fronts = NonDominatedSorting().do(F, n_stop_if_ranked=n)
     keep = np.concatenate(fronts[:-1]).astype(int) if len(fronts) > 1 else np.zeros(0, int)

@@ -34,6 +34,7 @@ magnitude (seconds vs s^-2); ``normalise=False`` gives PlatEMO's raw distances.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 from pymoo.operators.crossover.sbx import cross_sbx
 from pymoo.operators.mutation.pm import mut_pm
 from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
@@ -60,7 +61,7 @@ def _as_cv(cv, n: int) -> np.ndarray:
     return np.maximum(cv, 0.0)
 
 
-def total_violation(G) -> np.ndarray:
+def total_violation(G: ArrayLike) -> np.ndarray:
     """Total constraint violation sum_j max(0, g_j) per row (0 where there are no columns)."""
     G = np.asarray(G, dtype=float)
     if G.ndim != 2 or G.shape[1] == 0:
@@ -75,7 +76,7 @@ def normalised(F: np.ndarray) -> np.ndarray:
     return (F - lo) / np.where(span > 0.0, span, 1.0)
 
 
-def dominance_matrix(F, cv=None) -> np.ndarray:
+def dominance_matrix(F: ArrayLike, cv: ArrayLike | None = None) -> np.ndarray:
     """``D[i, j]`` is True when solution i dominates j (constrained when ``cv`` is given).
 
     Pareto: i is no worse in every objective and better in at least one. CDP: i has the
@@ -102,7 +103,8 @@ def _kth_neighbour_distance(F: np.ndarray, k: int) -> np.ndarray:
     return np.partition(dist, k - 1, axis=1)[:, k - 1]
 
 
-def spea2_fitness(F, cv=None, *, normalise: bool = True) -> np.ndarray:
+def spea2_fitness(F: ArrayLike, cv: ArrayLike | None = None, *,
+                  normalise: bool = True) -> np.ndarray:
     """SPEA2 fitness R(i) + D(i) (lower is better; non-dominated solutions have < 1).
 
     Args:
@@ -122,7 +124,7 @@ def spea2_fitness(F, cv=None, *, normalise: bool = True) -> np.ndarray:
     return raw + 1.0 / (sigma + 2.0)
 
 
-def truncation(F, n_remove: int, *, normalise: bool = True) -> np.ndarray:
+def truncation(F: ArrayLike, n_remove: int, *, normalise: bool = True) -> np.ndarray:
     """Boolean mask of the ``n_remove`` solutions SPEA2's truncation deletes.
 
     Each step deletes the solution whose distances to the remaining ones, sorted
@@ -159,7 +161,8 @@ def truncation(F, n_remove: int, *, normalise: bool = True) -> np.ndarray:
     return deleted
 
 
-def environmental_selection(fitness, F, n: int, *, normalise: bool = True) -> np.ndarray:
+def environmental_selection(fitness: ArrayLike, F: ArrayLike, n: int, *,
+                            normalise: bool = True) -> np.ndarray:
     """Indices (ascending) of the ``n`` survivors of SPEA2's environmental selection.
 
     Args:
@@ -185,7 +188,7 @@ def environmental_selection(fitness, F, n: int, *, normalise: bool = True) -> np
     return np.flatnonzero(keep)
 
 
-def cdp_sort(F, cv) -> np.ndarray:
+def cdp_sort(F: ArrayLike, cv: ArrayLike) -> np.ndarray:
     """Front number (0 = best) of each solution under the constrained-dominance principle.
 
     Feasible solutions (``cv == 0``) are sorted into Pareto fronts (pymoo's fast
@@ -208,7 +211,7 @@ def cdp_sort(F, cv) -> np.ndarray:
     return fronts
 
 
-def change_rate(ideal_now, ideal_before, sigma: float = 1e-3) -> float:
+def change_rate(ideal_now: ArrayLike, ideal_before: ArrayLike, sigma: float = 1e-3) -> float:
     """Maximum relative change mc of the ideal point (seed paper Eq. 20).
 
     mc = max_i |z_i^iter - z_i^(iter-gap)| / max(|z_i^(iter-gap)|, sigma). The absolute
@@ -226,7 +229,7 @@ def change_rate(ideal_now, ideal_before, sigma: float = 1e-3) -> float:
     return float(np.max(np.abs(now - before) / np.maximum(np.abs(before), sigma)))
 
 
-def choose_granularity(G) -> tuple[str, np.ndarray]:
+def choose_granularity(G: ArrayLike) -> tuple[str, np.ndarray]:
     """MGSAEA's surrogate granularity for a population with constraint values ``G``.
 
     A constraint is *not fully satisfied* when some member violates it (max_i g_ij > 0).
@@ -251,7 +254,7 @@ def choose_granularity(G) -> tuple[str, np.ndarray]:
     return "objectives", unsatisfied
 
 
-def tournament(fitness, n: int, rng: np.random.Generator, k: int = 2) -> np.ndarray:
+def tournament(fitness: ArrayLike, n: int, rng: np.random.Generator, k: int = 2) -> np.ndarray:
     """Indices of ``n`` winners of k-ary tournaments on ``fitness`` (lower is better).
 
     Ties go to the solution that comes first in a stable sort of the fitness, as in
@@ -266,7 +269,7 @@ def tournament(fitness, n: int, rng: np.random.Generator, k: int = 2) -> np.ndar
     return cand[np.arange(n), np.argmin(rank[cand], axis=1)]
 
 
-def unique_rows(A, decimals: int | None = None) -> np.ndarray:
+def unique_rows(A: ArrayLike, decimals: int | None = None) -> np.ndarray:
     """Indices of the first occurrence of each distinct row, in their original order."""
     A = np.asarray(A, dtype=float)
     key = A if decimals is None else np.round(A, decimals)
@@ -274,7 +277,8 @@ def unique_rows(A, decimals: int | None = None) -> np.ndarray:
     return np.sort(first)
 
 
-def ga_offspring(X, mates, xl, xu, rng: np.random.Generator, crossover_eta: float = 20.0,
+def ga_offspring(X: ArrayLike, mates: ArrayLike, xl: np.ndarray, xu: np.ndarray,
+                 rng: np.random.Generator, crossover_eta: float = 20.0,
                  mutation_eta: float = 20.0) -> np.ndarray:
     """Two children per mating pair: SBX then polynomial mutation (PlatEMO's OperatorGA).
 
