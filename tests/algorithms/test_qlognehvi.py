@@ -1,0 +1,180 @@
+"""qLogNEHVI: targets and reference point by hand, Sobol start, BO steps, seeds, bad input."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from omegaconf import OmegaConf
+from scipy.stats import qmc
+
+from tmopt.algorithms.base import AlgorithmConfigError
+from tmopt.algorithms.qlognehvi import QLogNEHVI, reference_nadir
+from tmopt.config import check_node
+from tmopt.problems.evaluator import EvaluatedBatch, Evaluator
+from tmopt.problems.suites import PymooBenchmark
+from tmopt.runner import run_optimisation
+
+REPO = Path(__file__).resolve().parents[2]
+#: Small settings so one BO iteration takes a few seconds on two cores.
+FAST = dict(q=2, num_restarts=2, raw_samples=32, acq_maxiter=20, mc_samples=16, gp_max_iter=50)
+
+
+def run(alg, problem, budget, seed=0):
+    return run_optimisation(problem, alg, budget=budget, seed=seed, progress=False, plots=False)
+
+
+def test_reference_nadir_uses_the_feasible_front_or_everything():
+    Fn = np.array([[0.0, 1.0], [0.2, 0.4], [0.5, 0.5], [1.0, 0.0], [0.9, 0.9]])
+    G = np.array([[1.0], [-1.0], [-1.0], [2.0], [-0.5]])
+    # feasible rows 1, 2, 4: front {(0.2, 0.4)}; nadir = its own values
+    assert np.allclose(reference_nadir(Fn, G), [0.2, 0.4])
+    # nothing feasible: front of all rows {(0,1), (0.2,0.4), (1,0)}
+    assert np.allclose(reference_nadir(Fn, np.ones((5, 1))), [1.0, 1.0])
+    assert np.allclose(reference_nadir(Fn, np.zeros((5, 0))), [1.0, 1.0])
+
+
+def test_training_targets_normalise_negate_and_keep_feasibility():
+    alg = QLogNEHVI(ref_offset=0.1)
+    alg.setup(PymooBenchmark("mw3", n_var=4), budget=100, seed=0)
+    alg.F = np.array([[1.0, 30.0], [3.0, 10.0], [2.0, 20.0]])
+    alg.G = np.array([[-4.0, 0.5], [2.0, -1.0], [-1.0, -0.25]])
+    Y, ref = alg._training_targets()
+    assert np.allclose(Y[:, :2], -np.array([[0.0, 1.0], [1.0, 0.0], [0.5, 0.5]]))
+    assert np.allclose(Y[:, 2:], [[-1.0, 0.5], [0.5, -1.0], [-0.25, -0.25]])
+    assert np.array_equal(Y[:, 2:] <= 0, alg.G <= 0)
+    # only row 2 is feasible: ref = -(its normalised objectives + 0.1)
+    assert np.allclose(ref, [-0.6, -0.6])
+
+
+@pytest.mark.filterwarnings("ignore:The balance properties")
+def test_initial_sample_is_a_scrambled_sobol_design_of_2_d_plus_1():
+    problem = PymooBenchmark("mw3", n_var=4)
+    alg = QLogNEHVI()
+    assert alg.initial_sample_size(problem) == 10
+    alg.setup(problem, budget=100, seed=3)
+    X = alg.ask()
+    assert X.shape == (10, 4) and np.all((X >= problem.xl) & (X <= problem.xu))
+    expected = qmc.Sobol(4, scramble=True, seed=np.random.default_rng(3)).random(10)
+    assert np.allclose(X, problem.xl + expected * (problem.xu - problem.xl))
+
+
+def test_bo_iterations_propose_q_new_points_and_count_every_evaluation():
+    problem = PymooBenchmark("mw3", n_var=4)
+    res = run(QLogNEHVI(n_init=8, **FAST), problem, budget=12, seed=1)
+    assert len(res.archive) == 12
+    assert np.bincount(res.archive.batch).tolist() == [8, 2, 2]
+    new = res.archive.X[8:]
+    assert np.all((new >= problem.xl) & (new <= problem.xu))
+    assert len(np.unique(res.archive.X, axis=0)) == 12
+    again = run(QLogNEHVI(n_init=8, **FAST), problem, budget=12, seed=1)
+    assert np.array_equal(res.archive.X, again.archive.X)  # same seed, same archive
+
+
+def test_another_seed_gives_another_run():
+    problem = PymooBenchmark("mw3", n_var=4)
+    a, b = QLogNEHVI(), QLogNEHVI()
+    a.setup(problem, budget=100, seed=1)
+    b.setup(problem, budget=100, seed=2)
+    assert not np.array_equal(a.ask(), b.ask())
+
+
+def test_failed_designs_are_left_out_of_the_models():
+    problem = PymooBenchmark("mw3", n_var=4)
+    alg = QLogNEHVI(n_init=4, **FAST)
+    alg.setup(problem, budget=20, seed=0)
+    X = alg.ask()
+    alg.tell(EvaluatedBatch(X=X, F=np.ones((4, 2)), G=np.ones((4, 2)),
+                            failed=np.array([False, True, False, False]),
+                            reason=["", "diverged", "", ""]))
+    assert len(alg.U) == 3 and np.allclose(alg.U, X[[0, 2, 3]])  # bounds are [0, 1]
+
+
+@pytest.mark.slow
+def test_finds_feasible_designs_far_more_often_than_sobol_sampling():
+    problem = PymooBenchmark("mw3", n_var=4)
+    res = run(QLogNEHVI(num_restarts=2, raw_samples=64, mc_samples=32, acq_maxiter=50),
+              problem, budget=60, seed=0)
+    sobol = qmc.Sobol(4, seed=0).random(64)[:60]
+    feasible_sobol = np.all(problem.evaluate(sobol, return_as_dictionary=True)["G"] <= 0, 1)
+    # measured: seeds 0/1 give 0.40/0.38 feasible with BO, 0.02/0.03 with Sobol points
+    assert res.metrics["feasible_ratio"] > 0.2 > 5 * feasible_sobol.mean()
+
+
+@pytest.mark.slow
+def test_seconds_per_iteration_at_300_points_d18():
+    """The timing quoted in docs/algorithms-baselines.md (prints; asserts only success)."""
+    import time
+
+    from tmopt.problems.base import ExpensiveProblem
+
+    class Synthetic(ExpensiveProblem):
+        def __init__(self):
+            super().__init__(n_var=18, n_obj=2, n_ieq_constr=4, name="synthetic")
+
+        def _evaluate(self, X, out, *args, **kwargs):
+            g = 1.0 + 9.0 * X[:, 1:].mean(axis=1)
+            out["F"] = np.column_stack([X[:, 0], g * (1.0 - np.sqrt(X[:, 0] / g))])
+            out["G"] = np.column_stack([0.3 * np.sin(6 * X[:, i]) + X[:, i + 4] - 0.9
+                                        for i in range(4)])
+
+    problem, alg = Synthetic(), QLogNEHVI()
+    alg.setup(problem, budget=310, seed=0)
+    ev = Evaluator(problem, 310)
+    alg.tell(ev.evaluate(np.random.default_rng(0).random((300, 18))))
+    alg.iteration = 1
+    start = time.process_time()
+    X = alg.ask()
+    print(f"CPU {time.process_time() - start:.1f} s, {alg.timing}")
+    assert X.shape == (5, 18)
+
+
+@pytest.mark.parametrize("kwargs, text", [
+    ({"q": 0}, "q must be an integer >= 1, got 0"),
+    ({"n_init": 1}, "n_init must be an integer >= 2, got 1"),
+    ({"raw_samples": 0}, "raw_samples must be an integer >= 1, got 0"),
+    ({"eta": 0.0}, r"eta must be a finite number in \(0.0, inf\), got 0.0"),
+    ({"kernel": "linear"}, r"kernel must be one of \('rbf', 'matern52'\), got 'linear'"),
+    ({"threads": 0}, "threads must be an integer >= 1, got 0"),
+])
+def test_bad_arguments_are_named(kwargs, text):
+    with pytest.raises(AlgorithmConfigError, match="qlognehvi: " + text):
+        QLogNEHVI(**kwargs)
+
+
+def test_budget_below_the_initial_sample_is_refused():
+    with pytest.raises(AlgorithmConfigError, match="qlognehvi: budget=20 .* initial sample "
+                                                   "of 32 .* mw3"):
+        run(QLogNEHVI(), PymooBenchmark("mw3"), budget=20)  # D = 15: 2 (15 + 1) = 32
+
+
+def test_all_initial_designs_failing_is_a_clear_error():
+    problem = PymooBenchmark("mw3", n_var=4)
+    alg = QLogNEHVI(n_init=3)
+    alg.setup(problem, budget=20, seed=0)
+    X = alg.ask()
+    with pytest.raises(AlgorithmConfigError, match="qlognehvi: only 0 of 3 designs"):
+        alg.tell(EvaluatedBatch(X=X, F=np.ones((3, 2)), G=np.ones((3, 2)),
+                                failed=np.ones(3, bool), reason=["x"] * 3))
+
+
+def test_yaml_matches_the_constructor():
+    node = OmegaConf.load(REPO / "conf" / "algorithm" / "qlognehvi.yaml")
+    cls = check_node("algorithm", node, "qlognehvi")
+    kwargs = {k: v for k, v in OmegaConf.to_container(node).items() if not k.startswith("_")}
+    assert cls(**kwargs).name == "qlognehvi"
+
+
+def test_cli_run(tmp_path):
+    fast = [f"algorithm.{k}={v}" for k, v in FAST.items()]
+    out = subprocess.run(
+        [sys.executable, "-m", "tmopt", "problem=mw3", "problem.n_var=4", "algorithm=qlognehvi",
+         "budget=12", "algorithm.n_init=10", *fast, "plots=false", f"hydra.run.dir={tmp_path}"],
+        cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    metrics = json.loads((tmp_path / "metrics.json").read_text())
+    assert metrics["algorithm"] == "qlognehvi" and metrics["n_evals"] == 12
