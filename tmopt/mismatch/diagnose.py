@@ -21,6 +21,7 @@ identification; here with the frequentist twin of their Bayes factors):
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, field
 
@@ -216,17 +217,28 @@ class _IVGroup:
     def __init__(self, target, cols, whiten):
         self.target, self.cols, self.whiten = target, cols, whiten
         self.n = target.size
+        self.q = _orth(cols, whiten)
+
+    def testable(self, cols: list[Column]) -> bool:
+        """Excited (non-zero instrument) and not already inside the fitted columns' span."""
+        if all(c.instrument is not None and not np.any(c.instrument) for c in cols):
+            return False
+        if self.q.size == 0:
+            return True
+        x = np.column_stack([self.whiten(c.values).ravel() for c in cols])
+        inside = self.q @ (self.q.T @ x)
+        return bool(np.all(np.sum((x - inside) ** 2, 0) > 1e-6 * np.sum(x**2, 0)))
 
     def estimate(self, col: Column) -> tuple[float, float]:
-        """IV coefficient and standard error of one added column (inf: not excited)."""
-        if col.instrument is not None and not np.any(col.instrument):
+        """IV coefficient and standard error of one added column (inf: not testable)."""
+        if not self.testable([col]):
             return 0.0, math.inf
         fit = solve_iv(self.target, self.cols + [col], self.whiten)
         return float(fit.coef[-1]), float(fit.std()[-1])
 
     def glr(self, cols: list[Column]) -> float:
-        if all(c.instrument is not None and not np.any(c.instrument) for c in cols):
-            return 0.0  # no excitation on the source axis: nothing to test
+        if not self.testable(cols):
+            return 0.0  # no excitation on the source axis, or already modelled
         fit = solve_iv(self.target, self.cols + cols, self.whiten)
         k = len(cols)
         th, cov = fit.coef[-k:], fit.cov[-k:, -k:]
@@ -379,16 +391,70 @@ def _add(data, basis, state: State, ev: Evaluation, settings: Settings) -> State
     eq_x = state.eq_cols[state.n_nominal_eq :]
     kin_x = state.kin_cols[state.n_nominal_kin :]
     tag = f"#{len(eq_x) + len(kin_x)}"  # unique names if an effect is selected twice
-    new = [Column(f"{c.name}{tag}", c.values) for c in cand.columns]
+    new = [Column(f"{c.name}{tag}", c.values, c.instrument) for c in cand.columns]
     cand.columns = new
-    if cand.group == "equation":
-        eq_x = eq_x + new
-        if cand.twin is not None and np.any(cand.twin.instrument):
-            kin_x = kin_x + [Column(f"{cand.twin.name}{tag}", cand.twin.values,
-                                    cand.twin.instrument)]  # fmt: skip
+    if cand.twin is not None:
+        cand.twin = Column(f"{cand.twin.name}{tag}", cand.twin.values, cand.twin.instrument)
+    eq_c, kin_c, _ = _columns([ev])
+    return fit_state(data, basis, eq_x + eq_c, kin_x + kin_c, state.ar_order, settings)
+
+
+def _columns(chosen: list[Evaluation]) -> tuple[list[Column], list[Column], int]:
+    """Equation columns, kinematic columns (incl. accelerometer twins) and AR order."""
+    eq, kin, ar = [], [], 0
+    for ev in chosen:
+        c = ev.candidate
+        if c.group == "noise":
+            ar = int(c.fixed["ar_order"])
+        elif c.group == "equation":
+            eq += c.columns
+            if c.twin is not None and np.any(c.twin.instrument):
+                kin.append(c.twin)
+        else:
+            kin += c.columns
+    return eq, kin, ar
+
+
+def _rebuild(data, basis, chosen: list[Evaluation], settings: Settings) -> State:
+    eq, kin, ar = _columns(chosen)
+    return fit_state(data, basis, eq, kin, ar, settings)
+
+
+def _still_needed(data, basis, chosen: list[Evaluation], i: int, settings: Settings,
+                  n_tests: int) -> bool:  # fmt: skip
+    """Is effect i significant given all the others (Bonferroni at the catalogue size)?"""
+    others = chosen[:i] + chosen[i + 1 :]
+    st = _rebuild(data, basis, others, settings)
+    cand = chosen[i].candidate
+    if cand.group == "noise":
+        ev = _colored_noise_eval(copy.copy(cand), st, settings.ar_max)
+        lam, dof, n, trials = ev.glr, ev.dof, ev.n_obs, settings.ar_max
     else:
-        kin_x = kin_x + new
-    return fit_state(data, basis, eq_x, kin_x, state.ar_order, settings)
+        groups = {
+            "equation": _Group(None, st.eq_cols, st.eq_fit, st.eq_noise.whiten),
+            "kinematic": _IVGroup(kinematic_target(data), st.kin_cols, st.kin_noise.whiten),
+        }
+        g = groups[cand.group]
+        lam = g.glr(cand.columns) if cand.twin is None else _joint(cand, groups)
+        dof, n, trials = len(cand.columns), g.n, cand.trials
+    p = min(1.0, n_tests * trials * float(stats.chi2.sf(lam, dof)))
+    return p < settings.alpha and lam - dof * math.log(n) > 0
+
+
+def _backward(data, basis, selected: list, settings: Settings, n_tests: int) -> list:
+    """Backward elimination after the greedy forward pass (stepwise selection): an effect
+    chosen early can become unnecessary once later ones are in (e.g. coloured noise that
+    stood in for two deterministic effects)."""
+    changed = True
+    while changed and len(selected) > 1:
+        changed = False
+        chosen = [ev for ev, _ in selected]
+        for i in reversed(range(len(chosen))):
+            if not _still_needed(data, basis, chosen, i, settings, n_tests):
+                selected = selected[:i] + selected[i + 1 :]
+                changed = True
+                break
+    return selected
 
 
 def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
@@ -411,6 +477,11 @@ def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
         state = _add(data, basis, state, best, settings)
         selected.append((best, alts))
     n_tests = len(steps[0]) if steps else 1
+    if len(selected) > 1:
+        kept = _backward(data, basis, selected, settings, n_tests)
+        if len(kept) < len(selected):
+            selected = kept
+            state = _rebuild(data, basis, [ev for ev, _ in kept], settings)
     return Diagnosis(
         data=data, basis=basis, before=before, after=state, selected=selected,
         locations=_locate_state(data, basis, before, settings.locate_alpha),

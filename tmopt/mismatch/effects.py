@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
+from scipy import signal
 
 from tmopt.mismatch.fit import (
     AXES,
@@ -417,23 +418,37 @@ class Glitch(Effect):
         )]  # fmt: skip
 
     def search(self, ctx: Context):
-        """Max over axis, width, shape, onset of ``(s.g)^2/|g|^2`` on the spatially whitened
-        residual projected on each axis's direction (unit-variance under the noise model)."""
+        """Max over axis, width, shape, onset of the matched-filter statistic
+        ``(e.t)^2/|t|^2`` on the fully whitened residual ``e`` (spatial, then the AR
+        prediction-error filter when coloured noise is modelled), with the template ``t``
+        whitened the same way, so the statistic is chi^2_1 at every trial under the noise
+        model."""
         d = ctx.data
-        w = ctx.eq_noise.spatial(ctx.eq_residual)
-        dirs = np.linalg.solve(np.linalg.cholesky(ctx.eq_noise.cov), ctx.basis.T)  # (2, 4)
+        noise = ctx.eq_noise
+        w = noise.spatial(ctx.eq_residual)
+        dirs = np.linalg.solve(np.linalg.cholesky(noise.cov), ctx.basis.T)  # (2, 4)
+        filters = [(np.concatenate([[1.0], -phi]), math.sqrt(v))
+                   for phi, v in zip(noise.ar, noise.ar_var)]  # fmt: skip
+        filters = filters or [(np.ones(1), 1.0)] * w.shape[0]
         m = w.shape[1]
         nfft = 1 << int(math.ceil(math.log2(2 * m)))
+        innov = []
+        for c, (a_c, sd) in enumerate(filters):
+            e = signal.lfilter(a_c, [1.0], w[c]) / sd
+            e[: a_c.size - 1] = 0.0  # no prediction-error value before the filter fills
+            innov.append(np.fft.rfft(e, nfft))
         best, trials = None, 0
         for beta in self.widths(d):
             for kind in self.KINDS:
                 g = glitch_shape(np.arange(m) * d.dt, beta, kind)
-                energy = np.cumsum(g**2)[::-1]  # template truncated at the end of the record
-                gf = np.conj(np.fft.rfft(g, nfft))
+                corr_c, tail_c = [], []
+                for (a_c, sd), e_f in zip(filters, innov):
+                    ga = signal.lfilter(a_c, [1.0], g) / sd
+                    corr_c.append(np.fft.irfft(e_f * np.conj(np.fft.rfft(ga, nfft)), nfft)[:m])
+                    tail_c.append(np.cumsum(ga**2)[::-1])  # template cut at the record's end
                 for a in range(4):
-                    u = dirs[:, a] / np.linalg.norm(dirs[:, a])
-                    s = u @ w
-                    corr = np.fft.irfft(np.fft.rfft(s, nfft) * gf, nfft)[:m]
+                    corr = sum(dirs[c, a] * corr_c[c] for c in range(len(filters)))
+                    energy = sum(dirs[c, a] ** 2 * tail_c[c] for c in range(len(filters)))
                     # onsets whose template is mostly cut off by the record's end: skipped
                     lam = np.where(energy >= 0.5 * energy[0], corr**2 / energy[0], 0.0)
                     k = int(np.argmax(lam))
