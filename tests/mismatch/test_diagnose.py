@@ -8,12 +8,13 @@ import math
 
 import numpy as np
 import pytest
-from test_effects import add_force  # same folder (no package): pytest puts it on sys.path
 
 from tmopt.mismatch.diagnose import Settings, _identifiable, diagnose, fit_state
 from tmopt.mismatch.effects import Candidate
 from tmopt.mismatch.fit import Column, data_from_result, null_basis
 from tmopt.physics import MultiSine, SimulationConfig, simulate
+
+from .test_effects import add_force
 
 REF1 = MultiSine([[5e-5, 2e-5]], [[2 * math.pi / 300, 2 * math.pi / 70]])
 REF2 = MultiSine(3e-5, 2 * math.pi / 500)

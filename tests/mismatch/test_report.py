@@ -6,11 +6,12 @@ import copy
 import json
 
 import pytest
-from test_diagnose import REF1, REF2
-from test_effects import add_force  # same folder (no package): pytest puts it on sys.path
 
 from tmopt.mismatch.diagnose import diagnose
 from tmopt.mismatch.report import conclusion, write_report
+
+from .test_diagnose import REF1, REF2
+from .test_effects import add_force
 
 
 @pytest.fixture(scope="module")

@@ -27,8 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import stats
-from statsmodels.stats.diagnostic import acorr_ljungbox
-from statsmodels.stats.multitest import multipletests
+from statsmodels.tsa.stattools import acovf
 
 from tmopt.mismatch import calibration as cal
 from tmopt.mismatch.effects import CATALOGUE, Candidate, Context
@@ -212,36 +211,63 @@ def _colored_noise_eval(cand: Candidate, state: State, ar_max: int) -> Evaluatio
 
 
 class _IVGroup:
-    """Wald statistic of added columns in the instrumental-variable fit (kinematic group)."""
+    """Wald statistic of added columns in the instrumental-variable fit (kinematic group);
+    the whitened target, columns and instruments of the fitted model are cached."""
 
     def __init__(self, target, cols, whiten):
-        self.target, self.cols, self.whiten = target, cols, whiten
-        self.n = target.size
+        self.whiten = whiten
+        self.y = whiten(target).ravel()
+        self.n = self.y.size
+        self.x = [whiten(c.values).ravel() for c in cols]
+        self.z = [whiten(c.values if c.instrument is None else c.instrument).ravel()
+                  for c in cols]  # fmt: skip
         self.q = _orth(cols, whiten)
 
-    def testable(self, cols: list[Column]) -> bool:
+    def _new(self, cols: list[Column]) -> tuple[list[np.ndarray], list[np.ndarray]]:
+        x = [self.whiten(c.values).ravel() for c in cols]
+        z = [self.whiten(c.values if c.instrument is None else c.instrument).ravel()
+             for c in cols]  # fmt: skip
+        return x, z
+
+    def testable(self, cols: list[Column], x: list[np.ndarray]) -> bool:
         """Excited (non-zero instrument) and not already inside the fitted columns' span."""
         if all(c.instrument is not None and not np.any(c.instrument) for c in cols):
             return False
         if self.q.size == 0:
             return True
-        x = np.column_stack([self.whiten(c.values).ravel() for c in cols])
-        inside = self.q @ (self.q.T @ x)
-        return bool(np.all(np.sum((x - inside) ** 2, 0) > 1e-6 * np.sum(x**2, 0)))
+        xm = np.column_stack(x)
+        inside = self.q @ (self.q.T @ xm)
+        return bool(np.all(np.sum((xm - inside) ** 2, 0) > 1e-6 * np.sum(xm**2, 0)))
+
+    def _fit(self, cols: list[Column]) -> tuple[np.ndarray, np.ndarray] | None:
+        """IV coefficients and covariance of the added columns (None: not testable)."""
+        x_new, z_new = self._new(cols)
+        if not self.testable(cols, x_new):
+            return None
+        x, z = np.column_stack(self.x + x_new), np.column_stack(self.z + z_new)
+        sx, sz = np.sqrt(np.mean(x**2, 0)), np.sqrt(np.mean(z**2, 0))
+        sx[sx == 0], sz[sz == 0] = 1.0, 1.0
+        x, z = x / sx, z / sz
+        ainv = np.linalg.pinv(z.T @ x)
+        coef = ainv @ (z.T @ self.y)
+        r = self.y - x @ coef
+        s2 = float(r @ r) / max(self.n - x.shape[1], 1)
+        cov = s2 * ainv @ (z.T @ z) @ ainv.T / np.outer(sx, sx)
+        k = len(cols)
+        return (coef / sx)[-k:], cov[-k:, -k:]
 
     def estimate(self, col: Column) -> tuple[float, float]:
         """IV coefficient and standard error of one added column (inf: not testable)."""
-        if not self.testable([col]):
+        res = self._fit([col])
+        if res is None:
             return 0.0, math.inf
-        fit = solve_iv(self.target, self.cols + [col], self.whiten)
-        return float(fit.coef[-1]), float(fit.std()[-1])
+        return float(res[0][0]), float(math.sqrt(max(res[1][0, 0], 0.0)))
 
     def glr(self, cols: list[Column]) -> float:
-        if not self.testable(cols):
+        res = self._fit(cols)
+        if res is None:
             return 0.0  # no excitation on the source axis, or already modelled
-        fit = solve_iv(self.target, self.cols + cols, self.whiten)
-        k = len(cols)
-        th, cov = fit.coef[-k:], fit.cov[-k:, -k:]
+        th, cov = res
         return float(th @ np.linalg.pinv(cov) @ th)
 
 
@@ -279,10 +305,21 @@ def evaluate(data: Data, basis: np.ndarray, state: State, settings: Settings,
             dof = len(cand.columns)
             p = min(1.0, cand.trials * float(stats.chi2.sf(lam, dof)))
             out.append(Evaluation(cand, lam, dof, g.n, p))
-    if out:
-        _, padj, _, _ = multipletests([e.p_value for e in out], method="holm")
-        for e, p in zip(out, padj):
-            e.p_holm = float(p)
+    for e, p in zip(out, holm([e.p_value for e in out])):
+        e.p_holm = float(p)
+    return out
+
+
+def holm(p: list[float]) -> np.ndarray:
+    """Holm's step-down adjusted p-values (Holm, Scand. J. Stat. 6, 65 (1979)):
+    ``p_(i) (m - i + 1)``, made monotone, capped at 1."""
+    p = np.asarray(p, dtype=float)
+    if p.size == 0:
+        return p
+    order = np.argsort(p)
+    adj = np.maximum.accumulate(p[order] * (p.size - np.arange(p.size)))
+    out = np.empty_like(p)
+    out[order] = np.minimum(adj, 1.0)
     return out
 
 
@@ -494,10 +531,21 @@ def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
 # ------------------------------------------------------------------------ summaries
 
 
+def ljung_box(x: np.ndarray, lags: int) -> float:
+    """Ljung-Box portmanteau p-value (Ljung & Box, Biometrika 65, 297 (1978)):
+    ``Q = n (n + 2) sum_k r_k^2 / (n - k) ~ chi^2_lags``; autocovariances by FFT
+    (statsmodels ``acovf``; its ``acorr_ljungbox`` correlates in O(n^2))."""
+    n = x.size
+    ac = acovf(x - x.mean(), nlag=lags, fft=True)
+    r = ac[1:] / ac[0]
+    q = n * (n + 2) * float(np.sum(r**2 / (n - np.arange(1, lags + 1))))
+    return float(stats.chi2.sf(q, lags))
+
+
 def whiteness_p(state: State) -> float:
-    """Ljung-Box (statsmodels) on each whitened equation channel; Bonferroni over channels."""
+    """Ljung-Box on each whitened equation channel; Bonferroni over the channels."""
     w = state.eq_noise.whiten(state.eq_fit.residual)
-    ps = [float(acorr_ljungbox(c, lags=[cal.LJUNG_BOX_LAGS])["lb_pvalue"].iloc[0]) for c in w]
+    ps = [ljung_box(c, cal.LJUNG_BOX_LAGS) for c in w]
     return min(1.0, len(ps) * min(ps))
 
 

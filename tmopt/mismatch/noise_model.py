@@ -196,9 +196,14 @@ class SpectralNoise:
 
     def whiten(self, arr: np.ndarray) -> np.ndarray:
         """Taper, then divide the transform by the PSD's square root (circulant Whittle):
-        unit variance in the middle, the ends tapered to zero."""
-        x = np.fft.rfft(arr * self.window, axis=1) / np.sqrt(self.psd)
-        return np.fft.irfft(x, n=self.m, axis=1)
+        unit variance in the middle, the ends tapered to zero.  Zero rows (a regressor on
+        one axis only) are skipped."""
+        out = np.zeros(arr.shape)
+        rows = np.flatnonzero(np.any(arr != 0, axis=1))
+        if rows.size:
+            x = np.fft.rfft(arr[rows] * self.window, axis=1) / np.sqrt(self.psd[rows])
+            out[rows] = np.fft.irfft(x, n=self.m, axis=1)
+        return out
 
     def loglik(self, residual: np.ndarray) -> float:
         """Whittle log-likelihood (up to the model-independent normalisation)."""
