@@ -47,10 +47,11 @@ def test_std_zero_at_data_and_growing_away(smooth3):
     assert np.all(model.predict(np.full((1, 4), 10.0))[1] > model.predict(X.mean(0))[1])
 
 
-def test_std_is_loo_error_scaled_by_distance(smooth3):
+@pytest.mark.parametrize("centres", ["all", "kmeans"])
+def test_std_is_loo_error_scaled_by_distance(smooth3, centres):
     """std_j(x) = LOO RMSE_j x d(x) / d_nn, recomputed here independently with NumPy."""
     X, Y, _ = smooth3
-    model = RBFSurrogate(kernel="multiquadric").fit(X, Y)
+    model = RBFSurrogate(kernel="multiquadric", centres=centres).fit(X, Y)
     lo, span = X.min(0), X.max(0) - X.min(0)
     U = (X - lo) / span
     D = np.linalg.norm(U[:, None] - U[None], axis=2)
@@ -72,8 +73,9 @@ def test_closed_form_loo_matches_refits():
     model.fit(X, Y)
     Xn = torch.as_tensor((X - model._lo) / model._span)
     Ys = torch.as_tensor((Y - model._y_mean) / model._y_std)
-    _, loo = model._solve(Xn, Ys, model._sigma)
-    A = model._design(Xn, model._sigma)
+    D = torch.cdist(Xn, model._C)
+    _, loo = model._solve(D, Xn, Ys, model._sigma)
+    A = model._design(D, Xn, model._sigma)
     lam = 1e-6 * float((A.T @ A).diagonal().mean())
     for i in range(len(X)):
         keep = torch.arange(len(X)) != i

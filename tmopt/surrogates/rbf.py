@@ -17,14 +17,17 @@ which makes the cubic kernel well posed and lets the model extrapolate linearly.
   the factor is chosen from ``width_factors`` by the closed-form leave-one-out error below.
   The cubic kernel is scale-free (sigma only rescales its weights), so it uses factor 1.
 * Weights: ridge regression in closed form, (A^T A + lambda I) W = A^T Y with
-  lambda = ``ridge`` x mean(diag(A^T A)), solved by Cholesky (Hoerl & Kennard 1970).
+  lambda = ``ridge`` x mean(diag(A^T A)) (relative, so it does not depend on the kernel's
+  scale), solved by Cholesky (ridge regression: Hoerl & Kennard 1970).
 * Leave-one-out residuals of a linear smoother, e_i = r_i / (1 - H_ii) with
   H = A (A^T A + lambda I)^-1 A^T (Allen 1974, PRESS), for the basis held fixed.
 * Uncertainty: std_j(x) = s_j * d(x) / d_nn, where s_j is the leave-one-out RMS error of
   output j, d(x) the distance (unit box) from x to the nearest training point and d_nn the
   mean nearest-neighbour distance among training points. It is a distance-to-data error
   scale: 0 at training points, about the LOO error at the typical spacing of the data,
-  growing linearly away from it. It is not a posterior standard deviation.
+  growing linearly away from it. It is not a posterior standard deviation. (This rule
+  and the width rule are this project's choices, documented in docs/surrogates.md, not
+  taken from a paper.)
 """
 
 from __future__ import annotations
@@ -130,9 +133,10 @@ class RBFSurrogate(Surrogate):
         Ys = torch.as_tensor((Y - self._y_mean) / self._y_std, dtype=_DTYPE)
         self._C = self._choose_centres(Xn)
         spacing = _mean_nn_distance(self._C)
+        D = _dist(Xn, self._C)
         best = None
         for factor in self.width_factors:
-            W, loo = self._solve(Xn, Ys, factor * spacing)
+            W, loo = self._solve(D, Xn, Ys, factor * spacing)
             score = float((loo ** 2).mean())
             if np.isfinite(score) and (best is None or score < best[0]):
                 best = (score, factor, W, loo)
@@ -141,6 +145,8 @@ class RBFSurrogate(Surrogate):
         _, factor, self._W, loo = best
         self._sigma = factor * spacing
         self._Xn = torch.unique(Xn, dim=0)
+        # With all points as centres the query-centre distances also give d(x).
+        self._centres_are_data = torch.equal(self._C, self._Xn)
         self._d_nn = _mean_nn_distance(self._Xn)
         self._s_loo = loo.pow(2).mean(dim=0).sqrt().numpy() * self._y_std
         self._d = X.shape[1]
@@ -162,14 +168,14 @@ class RBFSurrogate(Surrogate):
             C, _ = kmeans2(distinct.numpy(), k, iter=20, minit="++", seed=rng)
         return torch.unique(torch.as_tensor(C, dtype=_DTYPE), dim=0)
 
-    def _design(self, Xn: torch.Tensor, sigma: float) -> torch.Tensor:
-        """A = [phi(||x - c|| / sigma), 1, x]  (rows: points, columns: basis)."""
-        Phi = _phi(self.kernel, _dist(Xn, self._C) / sigma)
+    def _design(self, D: torch.Tensor, Xn: torch.Tensor, sigma: float) -> torch.Tensor:
+        """A = [phi(D / sigma), 1, x] from the point-centre distances D (rows: points)."""
+        Phi = _phi(self.kernel, D / sigma)
         return torch.cat([Phi, torch.ones(len(Xn), 1, dtype=_DTYPE), Xn], dim=1)
 
-    def _solve(self, Xn: torch.Tensor, Ys: torch.Tensor, sigma: float):
+    def _solve(self, D: torch.Tensor, Xn: torch.Tensor, Ys: torch.Tensor, sigma: float):
         """Ridge weights and leave-one-out residuals (Allen 1974) for one width."""
-        A = self._design(Xn, sigma)
+        A = self._design(D, Xn, sigma)
         G = A.T @ A
         lam = self.ridge * float(G.diagonal().mean())
         G.diagonal().add_(lam)
@@ -191,16 +197,21 @@ class RBFSurrogate(Surrogate):
         X = self.check_query_data(X, self._d)
         return torch.as_tensor((X - self._lo) / self._span, dtype=_DTYPE)
 
+    def _mean(self, D: torch.Tensor, xn: torch.Tensor) -> np.ndarray:
+        mean = (self._design(D, xn, self._sigma) @ self._W).numpy()
+        return mean * self._y_std + self._y_mean
+
     def predict_mean(self, X: np.ndarray) -> np.ndarray:
         xn = self._scaled(X)
         with torch.no_grad(), torch_threads(self.num_threads):
-            mean = (self._design(xn, self._sigma) @ self._W).numpy()
-        return mean * self._y_std + self._y_mean
+            return self._mean(_dist(xn, self._C), xn)
 
     def predict(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        mean = self.predict_mean(X)
         xn = self._scaled(X)
         with torch.no_grad(), torch_threads(self.num_threads):
-            d_min = _dist(xn, self._Xn).min(dim=1).values.numpy()
+            D = _dist(xn, self._C)
+            mean = self._mean(D, xn)
+            D_data = D if self._centres_are_data else _dist(xn, self._Xn)
+            d_min = D_data.min(dim=1).values.numpy()
         std = (d_min / self._d_nn)[:, None] * self._s_loo[None, :]
         return mean, std
