@@ -12,8 +12,12 @@ see docs/mismatch.md, "Calibration").  They are constants here, not tuned per re
   bins and time windows) that decides "unexplained mismatch".
 * ``AMBIGUOUS_DBIC`` -- two explanations whose BIC differ by less than this are reported
   as competing (6 = "strong" evidence, Kass & Raftery, JASA 90, 773 (1995)).
-* ``ALIASED_R2`` -- a candidate regressor with this much of its variance inside the span
-  of the nominal regressors is called *aliased* with them (rather than merely not excited).
+* ``ALIASED_R2`` -- a candidate that this recording cannot reveal (minimum detectable value
+  above its plausible magnitude) is called *aliased* with a nominal parameter when at
+  least this share of its regressor lies in the nominal regressors' span (most of the
+  effect would be absorbed into, and bias, that parameter), else *not excited*.  Example:
+  a cubic stiffness under a single tone, ``x^3 = 3/4 A^2 x - 1/4 A^3 sin 3wt``: 90 %
+  of it looks like linear stiffness.
 """
 
 from __future__ import annotations
@@ -23,5 +27,5 @@ __all__ = ["FAMILY_ALPHA", "LOCATE_ALPHA", "AMBIGUOUS_DBIC", "ALIASED_R2", "LJUN
 FAMILY_ALPHA: float = 0.01
 LOCATE_ALPHA: float = 0.01
 AMBIGUOUS_DBIC: float = 6.0
-ALIASED_R2: float = 0.99
+ALIASED_R2: float = 0.5
 LJUNG_BOX_LAGS: int = 20

@@ -241,6 +241,8 @@ class _IVGroup:
 
     def _fit(self, cols: list[Column]) -> tuple[np.ndarray, np.ndarray] | None:
         """IV coefficients and covariance of the added columns (None: not testable)."""
+        if all(c.instrument is not None and not np.any(c.instrument) for c in cols):
+            return None  # no excitation on the source axis
         x_new, z_new = self._new(cols)
         if not self.testable(cols, x_new):
             return None
@@ -337,6 +339,7 @@ def identifiability(data: Data, basis: np.ndarray, state: State, settings: Setti
     }
     cache = {g: np.column_stack([w(c.values).ravel() for c in cols])
              for g, (cols, w) in nominal.items() if cols}  # fmt: skip
+    kin_group = _IVGroup(kinematic_target(data), *nominal["kinematic"])
     out = []
     for effect in CATALOGUE:
         if effect.profiled:
@@ -346,7 +349,7 @@ def identifiability(data: Data, basis: np.ndarray, state: State, settings: Setti
                 continue
             cols, whiten = nominal[cand.group]
             if cand.group == "kinematic":
-                rec = _identifiable_iv(cand, cols, kinematic_target(data), whiten, z2)
+                rec = _identifiable_iv(cand, kin_group, z2)
             else:
                 rec = _identifiable(cand, cols, cache[cand.group], whiten, z2)
             if rec is not None:
@@ -355,15 +358,14 @@ def identifiability(data: Data, basis: np.ndarray, state: State, settings: Setti
     return out
 
 
-def _identifiable_iv(cand: Candidate, cols: list[Column], target, whiten, z2) -> dict | None:
+def _identifiable_iv(cand: Candidate, group: _IVGroup, z2: float) -> dict | None:
     """Kinematic candidates: minimum detectable value from the IV covariance."""
     col = cand.columns[0]
     if not np.any(col.instrument):
         return {"name": cand.effect, "channel": cand.channel, "reason": "not excited",
                 "aliased_with": None, "min_detectable": None,
                 "plausible": cand.plausible}  # fmt: skip
-    fit = solve_iv(target, cols + [col], whiten)
-    mdp = math.sqrt(z2) * float(fit.std()[-1])
+    mdp = math.sqrt(z2) * group.estimate(col)[1]
     if mdp <= cand.plausible:
         return None
     return {"name": cand.effect, "channel": cand.channel, "reason": "not excited",
