@@ -16,7 +16,7 @@ from tmopt.algorithms.base import AlgorithmConfigError
 from tmopt.algorithms.cmoead import CMOEAD, ConstrainedMOEAD
 from tmopt.config import check_node
 from tmopt.problems.evaluator import Evaluator
-from tmopt.problems.suites import PymooBenchmark
+from tmopt.problems.suites import SUITE_PROBLEMS, PymooBenchmark
 from tmopt.runner import run_optimisation
 
 REPO = Path(__file__).resolve().parents[2]
@@ -114,6 +114,21 @@ def test_mw3_reaches_the_feasible_front():
     # seeds 0-2 give feasible shares 0.54-0.63 and IGD 0.032-0.043
     assert res.metrics["feasible_ratio"] > 0.4
     assert res.metrics["igd"] < 0.1
+
+
+@pytest.mark.parametrize("name", sorted(SUITE_PROBLEMS))
+def test_runs_on_every_suite_problem(name):
+    problem = PymooBenchmark(name)
+    alg = CMOEAD(pop_size=10)
+    budget = alg.initial_sample_size(problem) + 15
+    alg.setup(problem, budget=budget, seed=0)
+    ev = Evaluator(problem, budget)
+    while ev.remaining and alg.has_next():
+        X = alg.ask()
+        assert X.shape[1] == problem.n_var
+        assert np.all((X >= problem.xl) & (X <= problem.xu))
+        alg.tell(ev.evaluate(X[: ev.remaining]))
+    assert alg.n_evals == len(ev.archive) == budget
 
 
 def test_same_seed_same_archive():

@@ -21,7 +21,7 @@ from tmopt.algorithms.base import AlgorithmConfigError
 from tmopt.algorithms.cmoes import CMOES, _Set, even_search, promising
 from tmopt.config import check_node
 from tmopt.problems.evaluator import Evaluator
-from tmopt.problems.suites import PymooBenchmark
+from tmopt.problems.suites import SUITE_PROBLEMS, PymooBenchmark
 from tmopt.runner import run_optimisation
 
 REPO = Path(__file__).resolve().parents[2]
@@ -112,6 +112,21 @@ def test_mw3_reaches_the_feasible_front(operator):
     # seeds 0-2: feasible shares 0.46-0.50 (ga) / 0.29-0.34 (de), IGD 0.011-0.018
     assert res.metrics["feasible_ratio"] > 0.2
     assert res.metrics["igd"] < 0.05
+
+
+@pytest.mark.parametrize("name", sorted(SUITE_PROBLEMS))
+def test_runs_on_every_suite_problem(name):
+    problem = PymooBenchmark(name)
+    alg = CMOES(pop_size=6, stage_ratio=0.0)
+    budget = alg.initial_sample_size(problem) + 60
+    alg.setup(problem, budget=budget, seed=0)
+    ev = Evaluator(problem, budget)
+    while ev.remaining and alg.has_next():
+        X = alg.ask()
+        assert X.shape[1] == problem.n_var
+        assert np.all((X >= problem.xl) & (X <= problem.xu))
+        alg.tell(ev.evaluate(X[: ev.remaining]))
+    assert alg.n_evals == len(ev.archive) == budget
 
 
 def test_same_seed_same_archive():

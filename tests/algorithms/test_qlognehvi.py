@@ -16,7 +16,7 @@ from tmopt.algorithms.base import AlgorithmConfigError
 from tmopt.algorithms.qlognehvi import QLogNEHVI, reference_nadir
 from tmopt.config import check_node
 from tmopt.problems.evaluator import EvaluatedBatch, Evaluator
-from tmopt.problems.suites import PymooBenchmark
+from tmopt.problems.suites import SUITE_PROBLEMS, PymooBenchmark
 from tmopt.runner import run_optimisation
 
 REPO = Path(__file__).resolve().parents[2]
@@ -73,6 +73,31 @@ def test_bo_iterations_propose_q_new_points_and_count_every_evaluation():
     assert len(np.unique(res.archive.X, axis=0)) == 12
     again = run(QLogNEHVI(n_init=8, **FAST), problem, budget=12, seed=1)
     assert np.array_equal(res.archive.X, again.archive.X)  # same seed, same archive
+
+
+def test_three_objectives():
+    problem = PymooBenchmark("c2dtlz2", n_var=5)
+    alg = QLogNEHVI(n_init=8, **FAST)
+    alg.setup(problem, budget=10, seed=0)
+    ev = Evaluator(problem, 10)
+    while ev.remaining:
+        alg.tell(ev.evaluate(alg.ask()[: ev.remaining]))
+    assert alg.n_evals == 10 and alg.iteration == 2
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(SUITE_PROBLEMS))
+def test_runs_on_every_suite_problem(name):
+    problem = PymooBenchmark(name)
+    alg = QLogNEHVI(**FAST)
+    budget = alg.initial_sample_size(problem) + 2
+    alg.setup(problem, budget=budget, seed=0)
+    ev = Evaluator(problem, budget)
+    while ev.remaining:
+        X = alg.ask()
+        assert np.all((X >= problem.xl) & (X <= problem.xu))
+        alg.tell(ev.evaluate(X[: ev.remaining]))
+    assert alg.n_evals == budget
 
 
 def test_another_seed_gives_another_run():

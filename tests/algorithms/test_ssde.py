@@ -19,7 +19,7 @@ from tmopt.algorithms.ssde import SSDE
 from tmopt.config import check_node
 from tmopt.problems.base import ExpensiveProblem
 from tmopt.problems.evaluator import EvaluatedBatch, Evaluator
-from tmopt.problems.suites import PymooBenchmark
+from tmopt.problems.suites import SUITE_PROBLEMS, PymooBenchmark
 from tmopt.runner import run_optimisation
 
 REPO = Path(__file__).resolve().parents[2]
@@ -158,6 +158,21 @@ def test_failed_designs_are_never_training_samples():
                             reason=["", "boom", "", "boom"]))
     assert len(alg._samples) == 2
     assert np.allclose(alg._samples[:, :4], X[~failed])  # bounds are [0, 1]
+
+
+@pytest.mark.parametrize("name", sorted(SUITE_PROBLEMS))
+def test_runs_on_every_suite_problem(name):
+    problem = PymooBenchmark(name)
+    alg = SSDE(pop_size=10)
+    budget = alg.initial_sample_size(problem) + 20
+    alg.setup(problem, budget=budget, seed=0)
+    ev = Evaluator(problem, budget)
+    while ev.remaining and alg.has_next():
+        X = alg.ask()
+        assert X.shape[1] == problem.n_var
+        assert np.all((X >= problem.xl) & (X <= problem.xu))
+        alg.tell(ev.evaluate(X[: ev.remaining]))
+    assert alg.n_evals == len(ev.archive) == budget
 
 
 def test_same_seed_same_archive():

@@ -6,11 +6,13 @@ offspring is evaluated for real; a Table 3 baseline of the seed paper).
 Implements
     H. Jain and K. Deb, "An evolutionary many-objective optimization algorithm using
     reference-point based non-dominated sorting approach, part II: handling constraints
-    and extending to an adaptive approach", IEEE TEVC 18(4): 602-622, 2014 (C-MOEA/D,
-    Sec. V), on MOEA/D (Zhang & Li, IEEE TEVC 11(6): 712-731, 2007) with the neighbourhood
+    and extending to an adaptive approach", IEEE TEVC 18(4): 602-622, 2014 (C-MOEA/D),
+    on MOEA/D (Zhang & Li, IEEE TEVC 11(6): 712-731, 2007) with the neighbourhood
     mating and bounded replacement of MOEA/D-DE (Li & Zhang, IEEE TEVC 13(2): 284-302,
-    2009). Reference code: PlatEMO ``Algorithms/Multi-objective optimization/C-MOEAD``
-    (``CMOEAD.m``); pymoo's ``MOEAD`` is the base class.
+    2009). Reference code: PlatEMO's ``CMOEAD.m``; pymoo's ``MOEAD`` is the base class.
+    The paper's full text was not available here: the parameters and the rule below are
+    those of the issue and of CMOEAD.m (docs/algorithms-baselines.md lists what is
+    unverified).
 
 Parameters (constructor arguments, default, meaning):
     pop_size (100): upper bound of the population; the population is the number N of
@@ -35,9 +37,8 @@ Algorithm (one step per child; subproblems visited in order i = 1..N, as CMOEAD.
 1. With probability ``prob_neighbor_mating`` the pool P is subproblem i's T nearest
    weight vectors (Euclidean, itself included), else the whole population; P is shuffled
    and its first two members are the parents of one SBX + PM child.
-2. The ideal point z is updated with the child's objectives, feasible or not (CMOEAD.m;
-   Jain & Deb do not restrict it either).
-3. Constrained replacement (Jain & Deb 2014, Sec. V): for each j in P (shuffled order),
+2. The ideal point z is updated with the child's objectives, feasible or not (CMOEAD.m).
+3. Constrained replacement (Jain & Deb 2014, as CMOEAD.m): for each j in P (shuffled order),
    the child replaces x_j when CV(child) < CV(x_j), or when the violations are equal
    (e.g. both feasible) and g^pbi(child | w_j, z) <= g^pbi(x_j | w_j, z), where
    CV = sum_k max(0, g_k) and g^pbi = d1 + theta * d2 (pymoo's ``PBI``). At most

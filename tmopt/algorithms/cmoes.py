@@ -27,10 +27,10 @@ Algorithm (CMOES.m; CV = sum_k max(0, g_k)):
 
 Stage one, while P1 holds no feasible design or gen <= stage_ratio * maxgen:
     * P1 evolves with NSGA-II under the constrained-dominance principle (binary tournament
-      on front then crowding distance, both SBX children kept: 2N offspring);
+      on front then crowding distance; GA keeps both SBX children: 2N offspring, DE: N);
     * P2 evolves with SPEA2 on the objectives only (constraints ignored; binary tournament
       on its fitness, one child per pair: N offspring);
-    * both populations select from P + all 3N offspring; P3 is a copy of P2.
+    * both populations select from themselves + all offspring; P3 is a copy of P2.
 Stage two (the even search):
     * the promising region is the part of objective space not Pareto-dominated by any
       feasible member of P1 (GetLable.m);
@@ -170,6 +170,7 @@ class CMOES(Algorithm):
         self.stage = 1
         self.p1 = self.p2 = self.p3 = None
         self._fit1 = self._fit2 = self._fit3 = None
+        self._branch = 1     # stage of the offspring last asked for
         self._tau = 0.0      # gen / maxgen of the current stage-two generation
         self._max_cv = 0.0   # largest CV in [P1, P2, P3] at the start of that generation
 
@@ -185,9 +186,12 @@ class CMOES(Algorithm):
         if self.p1 is None:
             return self.rng.uniform(self.problem.xl, self.problem.xu, (2 * n, self.problem.n_var))
         gen, maxgen = ceil(self.n_evals / n), ceil(self.budget / n)
+        # The condition is re-checked every generation (CMOES.m); the branch taken here is
+        # remembered so the selection after the evaluations matches it.
         if np.all(self.p1.cv > 0.0) or gen <= self.stage_ratio * maxgen:
+            self._branch = 1
             return self._stage_one_offspring()
-        self._tau = gen / maxgen  # read again by the selection after the evaluations
+        self._branch, self._tau = 2, gen / maxgen
         if self.stage == 1:
             self._switch_stage()
         return self._stage_two_offspring()
@@ -236,7 +240,7 @@ class CMOES(Algorithm):
         off = _Set(batch.X, batch.F, batch.G)
         if self.p1 is None:
             self._initialise(off)
-        elif self.stage == 1:
+        elif self._branch == 1:
             self._stage_one_selection(off)
         else:
             self._stage_two_selection(off)

@@ -7,10 +7,12 @@ Implements
     S. Ament, S. Daulton, D. Eriksson, M. Balandat, E. Bakshy, "Unexpected improvements to
     expected improvement for Bayesian optimization", NeurIPS 2023 (the LogEI family), on
     qNEHVI of S. Daulton, M. Balandat, E. Bakshy, "Parallel Bayesian optimization of
-    multiple noisy objectives with expected hypervolume improvement", NeurIPS 2021, with
-    the constraint weighting of their Sec. on outcome constraints (feasibility by a
-    sigmoid of the sampled constraint values). BoTorch's
-    ``qLogNoisyExpectedHypervolumeImprovement`` and ``optimize_acqf`` do the work.
+    multiple noisy objectives with expected hypervolume improvement", NeurIPS 2021. Outcome
+    constraints as BoTorch implements them: each posterior sample's hypervolume
+    improvement is weighted, per constraint, by a fat-tailed sigmoid of -g~_k / eta
+    (BoTorch's ``log_fatmoid``, Ament et al. 2023), a smooth feasibility indicator.
+    BoTorch's ``qLogNoisyExpectedHypervolumeImprovement`` and ``optimize_acqf`` do the
+    work; nothing of the acquisition is written here.
 
 Parameters (constructor arguments, default, meaning):
     n_init (None): size of the scrambled Sobol initial sample; None = 2 (D + 1), BoTorch's
@@ -22,7 +24,7 @@ Parameters (constructor arguments, default, meaning):
     mc_samples (64): quasi-Monte-Carlo samples of the joint posterior (seeded Sobol).
     ref_offset (0.1): reference point = nadir of the current front + ref_offset in
         objectives normalised to [0, 1] over the data (rule below).
-    eta (1e-3): temperature of the sigmoid feasibility weight of each constraint, applied
+    eta (1e-3): temperature of the (fat-tailed) sigmoid feasibility weight, applied
         to constraints divided by their largest observed magnitude.
     gp_max_iter (200): L-BFGS-B iterations per GP fit (warm-started from the last fit).
     kernel ("rbf"): GP kernel, "rbf" or "matern52" (:class:`tmopt.surrogates.gp.GPSurrogate`).

@@ -41,8 +41,8 @@ Algorithm (SSDE.m / Operator.m), one generation:
 5. Only the children among the N survivors are evaluated for real (``ask`` returns just
    them, so a generation costs between 0 and N evaluations); they replace the parents
    that did not survive and become the next training samples. If no child survives, the
-   population itself becomes the sample set, which triggers a retraining, and the
-   generation is repeated without real evaluations.
+   population joins the samples (N of them, so the SOM is retrained) and the generation
+   is repeated without real evaluations.
 
 Constraints: with a child's CV taken as 0, every child beats every infeasible parent
 under CDP, so while the population is infeasible the whole generation is evaluated and
@@ -101,6 +101,7 @@ class SSDE(Algorithm):
                                      self.sigma0 if self.sigma0 is not None else self.pop_size,
                                      self.epochs, self.rng)
         self.X = self.F = self.G = None
+        self._failed = np.zeros(0, dtype=bool)  # population rows whose evaluation failed
         self._samples = np.zeros((0, p.n_var + self._n_out))
         self._replace: np.ndarray | None = None  # population rows the next batch replaces
         self._stalled = False
@@ -127,9 +128,10 @@ class SSDE(Algorithm):
             if len(children):
                 self._replace, self.last_survivors = replace, len(children)
                 return children
-            # No child survives: retrain on the population and try again (Operator.m).
-            self._samples = self._as_samples(self.X, self.F, self.G,
-                                             np.zeros(len(self.X), bool))
+            # No child survives: the population joins the samples, which forces a
+            # retraining, and the generation is repeated (Operator.m / SSDE.m).
+            self._samples = np.vstack([self._samples, self._as_samples(
+                self.X, self.F, self.G, self._failed)])
         log.warning("%s: no child predicted to survive in %d consecutive generations; "
                     "stopping after %d evaluations", self.name, self.max_idle, self.n_evals)
         self._stalled = True
@@ -167,8 +169,10 @@ class SSDE(Algorithm):
         new = self._as_samples(batch.X, batch.F, batch.G, batch.failed)
         if self.X is None:
             self.X, self.F, self.G = batch.X.copy(), batch.F.copy(), batch.G.copy()
+            self._failed = np.asarray(batch.failed, dtype=bool).copy()
             self._samples = new
             return
         rows = self._replace[: len(batch.X)]  # a prefix when the budget ran out
         self.X[rows], self.F[rows], self.G[rows] = batch.X, batch.F, batch.G
+        self._failed[rows] = batch.failed
         self._samples = np.vstack([self._samples, new])
