@@ -100,6 +100,12 @@ def test_runs_on_every_suite_problem(name):
     assert alg.n_evals == budget
 
 
+def test_max_iter_stops_the_run_before_the_budget():
+    res = run(QLogNEHVI(n_init=6, max_iter=1, **FAST), PymooBenchmark("mw3", n_var=4),
+              budget=50)
+    assert len(res.archive) == 6 + 2  # the initial sample and one iteration of q = 2
+
+
 def test_another_seed_gives_another_run():
     problem = PymooBenchmark("mw3", n_var=4)
     a, b = QLogNEHVI(), QLogNEHVI()
@@ -165,6 +171,7 @@ def test_seconds_per_iteration_at_300_points_d18():
     ({"eta": 0.0}, r"eta must be a finite number in \(0.0, inf\), got 0.0"),
     ({"kernel": "linear"}, r"kernel must be one of \('rbf', 'matern52'\), got 'linear'"),
     ({"threads": 0}, "threads must be an integer >= 1, got 0"),
+    ({"max_iter": -1}, "max_iter must be an integer >= 0, got -1"),
 ])
 def test_bad_arguments_are_named(kwargs, text):
     with pytest.raises(AlgorithmConfigError, match="qlognehvi: " + text):

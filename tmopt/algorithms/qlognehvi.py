@@ -28,6 +28,10 @@ Parameters (constructor arguments, default, meaning):
         to constraints divided by their largest observed magnitude.
     gp_max_iter (200): L-BFGS-B iterations per GP fit (warm-started from the last fit).
     kernel ("rbf"): GP kernel, "rbf" or "matern52" (:class:`tmopt.surrogates.gp.GPSurrogate`).
+    max_iter (None): BO iterations (of q evaluations) after the initial sample, after which
+        the algorithm stops proposing; None = until the budget is spent. The GPs are exact,
+        so budgets of thousands of evaluations (the ``paper`` preset's 10 000) need a cap:
+        max_iter = 100 stops after 2 (D + 1) + 500 evaluations, like MGSAEA's.
     threads (1): torch intra-op threads while fitting and optimising (restored afterwards);
         None = torch's setting. The tensors here are small (a few hundred points), so
         one thread is faster than the OpenMP hand-off, by ~6x on a loaded two-core machine.
@@ -89,7 +93,8 @@ class QLogNEHVI(Algorithm):
     def __init__(self, n_init: int | None = None, q: int = 5, num_restarts: int = 4,
                  raw_samples: int = 128, acq_maxiter: int = 100, mc_samples: int = 64,
                  ref_offset: float = 0.1, eta: float = 1e-3, gp_max_iter: int = 200,
-                 kernel: str = "rbf", threads: int | None = 1) -> None:
+                 kernel: str = "rbf", max_iter: int | None = None,
+                 threads: int | None = 1) -> None:
         n = self.name
         self.q = check_int(n, "q", q, 1)
         super().__init__(pop_size=max(self.q, 2))  # the batch is all the "population" it has
@@ -105,6 +110,7 @@ class QLogNEHVI(Algorithm):
             raise AlgorithmConfigError(f"algorithm {n}: kernel must be one of {KERNELS}, "
                                        f"got {kernel!r}")
         self.kernel = kernel
+        self.max_iter = None if max_iter is None else check_int(n, "max_iter", max_iter, 0)
         self.threads = None if threads is None else check_int(n, "threads", threads, 1)
 
     # ---- framework hooks --------------------------------------------------------------------
@@ -124,6 +130,10 @@ class QLogNEHVI(Algorithm):
                               rbf_fallback=False, seed=self.seed)
         self.iteration = 0
         self.timing: dict[str, float] = {}
+
+    def has_next(self) -> bool:
+        """False once ``max_iter`` BO iterations followed the initial sample."""
+        return self.max_iter is None or self.iteration <= self.max_iter
 
     def info(self) -> dict:
         out: dict = {"iteration": self.iteration}
