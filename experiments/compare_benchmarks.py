@@ -5,7 +5,8 @@
     python experiments/compare_benchmarks.py --dry-run       # print the sweep commands
 
 Settings (the algorithms issue's "expensive setting"): D = 10 variables, 300 real
-evaluations for every algorithm; the evolutionary baselines also with 10 000. Seeds
+evaluations for every algorithm; the evolutionary baselines also with 10 000 (C-MOEA/D
+then in batches of 100 children, not steady state: see --cmoead-batch). Seeds
 0..SEEDS-1. Two Hydra sweeps write into one folder (multirun/<name>), which
 ``python -m tmopt.collect`` reads; the generated part of docs/benchmarks.md (between its
 markers) is then replaced by the collected tables, the commands and the wall times,
@@ -29,6 +30,8 @@ PROBLEMS = ("mw1", "mw3", "mw7", "c1dtlz1", "c2dtlz2")
 #: Every algorithm of the comparison; the first group is also run with the large budget.
 EVOLUTIONARY = ("nsga2", "nsga3", "cmoead", "ctsea", "ssde", "cmoes")
 SURROGATE_ASSISTED = ("mgsaea", "mgsaea_star", "mgsaea_ipc", "qlognehvi")
+#: Run last, in their own sweep (GP fit + acquisition optimisation every iteration).
+SLOW = ("qlognehvi",)
 BEGIN, END = "<!-- BEGIN GENERATED: compare_benchmarks.py -->", \
     "<!-- END GENERATED: compare_benchmarks.py -->"
 
@@ -45,6 +48,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                     help="comma list (default: every algorithm of the comparison with a "
                          "conf/algorithm file)")
     ap.add_argument("--surrogate", default="rbf", help="surrogate of the SAEAs (rbf or gp)")
+    ap.add_argument("--cmoead-batch", type=int, default=100,
+                    help="C-MOEA/D's batch_size at --ea-budget (1 = steady state, whose "
+                         "10 000 one-design archive writes take ~15 min per run here)")
     ap.add_argument("--launcher", default="local_parallel")
     ap.add_argument("--n-jobs", type=int, default=2)
     ap.add_argument("--name", default="benchmarks", help="sweep folder multirun/<name>")
@@ -64,18 +70,30 @@ def algorithms(args: argparse.Namespace) -> list[str]:
 
 
 def sweep_commands(args: argparse.Namespace) -> list[list[str]]:
-    """The Hydra sweeps: all algorithms at --budget, the EAs again at --ea-budget."""
+    """The Hydra sweeps, cheapest first: all algorithms but the GP-based BO at --budget,
+    the EAs again at --ea-budget (C-MOEA/D in its own sweep, for its batch_size), then
+    qLogNEHVI (~30 s per iteration on two loaded cores), so partial results come early.
+    ``algorithm`` is the first override, so Hydra runs one algorithm's runs together."""
     algos = algorithms(args)
-    common = [sys.executable, "-m", "tmopt", "-m", f"name={args.name}",
-              f"problem={args.problems}", f"problem.n_var={args.n_var}",
-              f"surrogate={args.surrogate}", f"seed=range(0,{args.seeds})", "plots=false",
-              f"hydra/launcher={args.launcher}"]
+    head = [sys.executable, "-m", "tmopt", "-m"]
+    tail = [f"problem={args.problems}", f"problem.n_var={args.n_var}",
+            f"seed=range(0,{args.seeds})", f"name={args.name}", f"surrogate={args.surrogate}",
+            "plots=false", f"hydra/launcher={args.launcher}"]
     if args.launcher in ("local_parallel", "joblib"):
-        common.append(f"hydra.launcher.n_jobs={args.n_jobs}")
-    cmds = [[*common, f"algorithm={','.join(algos)}", f"budget={args.budget}"]]
-    eas = [a for a in algos if a in EVOLUTIONARY]
+        tail.append(f"hydra.launcher.n_jobs={args.n_jobs}")
+    cheap = [a for a in algos if a not in SLOW]
+    eas = [a for a in algos if a in EVOLUTIONARY and a != "cmoead"]
+    cmds = []
+    if cheap:
+        cmds.append([*head, f"algorithm={','.join(cheap)}", *tail, f"budget={args.budget}"])
     if args.ea_budget and eas:
-        cmds.append([*common, f"algorithm={','.join(eas)}", f"budget={args.ea_budget}"])
+        cmds.append([*head, f"algorithm={','.join(eas)}", *tail, f"budget={args.ea_budget}"])
+    if args.ea_budget and "cmoead" in algos:  # its own sweep: batch_size is C-MOEA/D's key
+        cmds.append([*head, "algorithm=cmoead", *tail, f"budget={args.ea_budget}",
+                     f"algorithm.batch_size={args.cmoead_batch}"])
+    slow = [a for a in algos if a in SLOW]
+    if slow:
+        cmds.append([*head, f"algorithm={','.join(slow)}", *tail, f"budget={args.budget}"])
     return cmds
 
 

@@ -149,11 +149,13 @@ def label(setting: dict, hide: Sequence[str] = ()) -> str:
 
 def markdown_rows(rows: list[dict], metrics: Sequence[Metric], keys: Sequence[str],
                   reference: str | None) -> tuple[list[str], list[list[str]]]:
-    """Header and body of a Markdown summary table."""
+    """Header and body of a Markdown summary table (p columns only where one is finite)."""
+    tested = {m.key for m in metrics if m.tested and reference and any(
+        math.isfinite(r.get(f"p_{m.key}", math.nan)) for r in rows)}
     header = [*keys, "runs"]
     for m in metrics:
         header.append(m.header)
-        if m.tested and reference:
+        if m.key in tested:
             header.append(f"p ({m.header}) vs {display_name(reference)}")
     body = []
     for row in rows:
@@ -161,7 +163,7 @@ def markdown_rows(rows: list[dict], metrics: Sequence[Metric], keys: Sequence[st
         cells.append(f"{row['n_complete']}/{row['n_runs']}")
         for m in metrics:
             cells.append(_cell(row, m))
-            if m.tested and reference:
+            if m.key in tested:
                 p = row.get(f"p_{m.key}", math.nan)
                 flag = "†" if _relaxed(row) and math.isfinite(p) else ""
                 cells.append(f"{fmt_p(p)}{flag} {row.get(f'mark_{m.key}', '')}".strip())
