@@ -145,6 +145,7 @@ def test_degenerate_data_does_not_crash(smooth3):
     Yd = np.c_[np.vstack([Y, Y[:15], Y[:15]])[:, 0], np.full(len(Xd), -2.0)]  # constant
     Xd[:, 2] = 0.3                                      # constant input column
     model = GPSurrogate().fit(Xd, Yd)
+    assert model.fit_info["stage"] == "mll"             # handled without a fallback
     mean, std = model.predict(Xd[:5] + 0.05)
     assert np.all(np.isfinite(mean)) and np.all(np.isfinite(std)) and np.all(std >= 0)
     np.testing.assert_allclose(mean[:, 1], -2.0, atol=1e-8)
