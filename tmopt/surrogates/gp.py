@@ -133,15 +133,15 @@ class GPSurrogate(Surrogate):
         if not (isinstance(noise_floor, (int, float)) and 0.0 < noise_floor <= 0.1):
             raise ValueError(f"noise_floor={noise_floor!r} is invalid: must be in (0, 0.1]")
         _check_int("max_iter", max_iter, 1)
-        _check_int("max_attempts", max_attempts, 1)
         _check_int("refit_every", refit_every, 1)
-        self.refit_every, self._since_opt = refit_every, 0
+        _check_int("max_attempts", max_attempts, 1)
         _check_int("seed", seed, 0)
         _check_int("num_threads", num_threads, 0)
-        self.num_threads = num_threads
         self.kernel, self.noise_floor = kernel, float(noise_floor)
         self.warm_start, self.fit_mode, self.rbf_fallback = warm_start, fit_mode, rbf_fallback
-        self.max_iter, self.max_attempts, self.seed = max_iter, max_attempts, seed
+        self.max_iter, self.refit_every, self.max_attempts = max_iter, refit_every, max_attempts
+        self.seed, self.num_threads = seed, num_threads
+        self._since_opt = 0  # fits with kept hyperparameters since the last optimised one
         self._model: SingleTaskGP | ModelListGP | None = None
         self._caches: list[_Cache] = []
         self._fallback: RBFSurrogate | None = None
