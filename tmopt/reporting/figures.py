@@ -41,10 +41,14 @@ def _series(rows: list[dict], scheme: str) -> dict[str, list[dict]]:
 
 
 def _errorbar(ax, rows: list[dict], key: str, **kw) -> None:
+    """Mean ± std against k; a black x where some run's chosen design is infeasible."""
     k = [int(r["setting"]["problem.n_freq"]) for r in rows]
     mean = [r[key][0] for r in rows]
     std = [0.0 if not math.isfinite(r[key][1]) else r[key][1] for r in rows]
     ax.errorbar(k, mean, yerr=std, capsize=3, marker="o", **kw)
+    bad = [(ki, m) for ki, m, r in zip(k, mean, rows) if r["chosen_feasible"][0] < 1]
+    if bad:
+        ax.plot(*zip(*bad), "kx", ms=9, label="_infeasible")
 
 
 def fig8(rows: list[dict], path: Path) -> None:
@@ -67,7 +71,8 @@ def fig8(rows: list[dict], path: Path) -> None:
         ax2.set_ylabel("convergence accuracy TM1 (s$^{-2}$), dashed")
         _log_if_positive(ax2)
         _merged_legend(ax, ax2)
-    fig.suptitle("Fig. 8: chosen design (Eq. 21) per configuration, mean ± std over seeds")
+    fig.suptitle("Fig. 8: chosen design (Eq. 21) per configuration, mean ± std over seeds "
+                 "(x: the chosen design of some run is infeasible)")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -84,7 +89,8 @@ def fig9(rows: list[dict], path: Path) -> None:
     ax.set_xlabel("number of frequencies k")
     ax.xaxis.get_major_locator().set_params(integer=True)
     ax.set_ylabel("M of TM1 (Eq. 29, lower is better)")
-    ax.set_title("Fig. 9: M per configuration, mean ± std over seeds")
+    ax.set_title("Fig. 9: M per configuration, mean ± std over seeds\n"
+                 "(x: the chosen design of some run is infeasible)", fontsize=10)
     if i:
         ax.legend(fontsize=8)
     fig.tight_layout()

@@ -34,8 +34,9 @@ class Metric:
         header: Markdown header.
         get: Value of a complete run (None when it has none).
         lower_is_better: Direction, for the +/-/= marks.
-        tested: Whether the rank-sum test against the reference is reported.
+        tested: Whether the rank-sum test against the reference is computed (CSV).
         sci: Scientific notation (None: decide by magnitude).
+        show_p: Whether the Markdown table shows that p-value too (tables stay readable).
     """
 
     key: str
@@ -44,6 +45,7 @@ class Metric:
     lower_is_better: bool = True
     tested: bool = False
     sci: bool | None = None
+    show_p: bool = True
 
 
 def _ident(key: str) -> Callable[[RunRecord], float | None]:
@@ -63,7 +65,7 @@ def _has_front(run: RunRecord) -> float:
 
 
 TABLE3_METRICS: tuple[Metric, ...] = tuple(
-    Metric(key, header, _ident(key), tested=key == "M_TM1",
+    Metric(key, header, _ident(key), tested=True, show_p=key == "M_TM1",
            sci=None if "time" in key or key.startswith("M_") else True)
     for key, header in TABLE3_COLUMNS)
 COMMON_METRICS: tuple[Metric, ...] = (
@@ -150,7 +152,7 @@ def label(setting: dict, hide: Sequence[str] = ()) -> str:
 def markdown_rows(rows: list[dict], metrics: Sequence[Metric], keys: Sequence[str],
                   reference: str | None) -> tuple[list[str], list[list[str]]]:
     """Header and body of a Markdown summary table (p columns only where one is finite)."""
-    tested = {m.key for m in metrics if m.tested and reference and any(
+    tested = {m.key for m in metrics if m.tested and m.show_p and reference and any(
         math.isfinite(r.get(f"p_{m.key}", math.nan)) for r in rows)}
     header = [*keys, "runs"]
     for m in metrics:
