@@ -38,8 +38,8 @@ PAIRS = (
 UNSEEN_EFFECTS = (("actuation_gain", "cubic_stiffness"), ("bias_drift", "glitch"))
 # settings never used while developing the tool (the paper's defaults were)
 UNSEEN = (
-    {"excitation": "multisine:4e-5@200,1e-5@45;2e-5@350,1e-5@60"},
-    {"excitation": "chirp:3e-5,0.002,0.02;2e-5,0.003,0.015"},
+    {"excitation": "multisine:4e-5@250,5e-6@60;2e-5@350,4e-6@80"},
+    {"excitation": "chirp:2e-5,0.001,0.008;1e-5,0.002,0.01"},
     {"noise_scale": 3.0},
     {"noise_scale": 0.3},
     {"duration": 2400.0},
@@ -108,8 +108,9 @@ def _param_error(found: dict, truth: dict) -> float | None:
 def score(rep: dict, truth: dict) -> dict:
     teff = truth["effects"]
     names = [e["name"] for e in rep["effects"]]
-    flagged = {r["name"] for r in rep["not_identifiable"]}
-    ambiguous = {a["name"] for e in rep["effects"] for a in e["evidence"]["alternatives"]}
+    flagged = {(r["name"], r["channel"]) for r in rep["not_identifiable"]}
+    ambiguous = {(a["name"], a["channel"]) for e in rep["effects"]
+                 for a in e["evidence"]["alternatives"]}  # fmt: skip
     row = {"detected": rep["mismatch_detected"], "unexplained": rep["unexplained"],
            "found": ";".join(f"{e['name']}[{e['channel']}]" for e in rep["effects"])}  # fmt: skip
     correct = [t["name"] in names for t in teff]
@@ -119,7 +120,8 @@ def score(rep: dict, truth: dict) -> dict:
     row["attributed"] = sum(correct)
     row["attributed_channel"] = sum(chan)
     row["top_correct"] = bool(teff) and bool(names) and names[0] in {t["name"] for t in teff}
-    row["flagged_or_ambiguous"] = sum(t["name"] in flagged | ambiguous for t in teff)
+    row["flagged_or_ambiguous"] = sum((t["name"], t.get("tool_channel")) in flagged | ambiguous
+                                      for t in teff)  # fmt: skip
     row["extra_effects"] = sum(n not in {t["name"] for t in teff} for n in names)
     errs = [_param_error(next(e for e in rep["effects"] if e["name"] == t["name"]), t)
             for t, ok in zip(teff, correct) if ok]  # fmt: skip

@@ -24,8 +24,8 @@ from scipy import stats
 
 SETTINGS = (
     {},
-    {"excitation": "multisine:3e-5@240,1e-5@50;2e-5@400,1e-5@90"},
-    {"excitation": "chirp:2e-5,0.002,0.02;2e-5,0.002,0.02"},
+    {"excitation": "multisine:3e-5@240,3e-6@50;2e-5@400,1e-5@90"},
+    {"excitation": "chirp:2e-5,0.001,0.008;2e-5,0.001,0.008"},
     {"excitation": "steps:2e-5,150;1e-5,200"},
     {"noise_scale": 0.5},
     {"noise_scale": 2.0},

@@ -126,7 +126,7 @@ def cubic_mdp(ref1: np.ndarray, ref2: np.ndarray, seed: int = 0) -> np.ndarray:
             continue
         d = data_from_result(res, i)
         b = null_basis(d.geometry)
-        st = fit_state(d, b, [], [], 0, Settings(ar_max=0))
+        st = fit_state(d, b, [], [], False, Settings())
         cols = st.eq_cols + [type(st.eq_cols[0])("k3", axis_column(b, 0, d.x[0] ** 3))]
         x = np.column_stack([st.eq_noise.whiten(c.values).ravel() for c in cols])
         sc = np.sqrt(np.mean(x**2, 0))

@@ -78,7 +78,7 @@ def test_unexplained_mismatch_is_located(clean):
 
 def test_a_candidate_inside_the_nominal_span_is_called_aliased(clean):
     basis = null_basis(clean.geometry)
-    st = fit_state(clean, basis, [], [], 0, Settings())
+    st = fit_state(clean, basis, [], [], False, Settings())
     cols = st.eq_cols[: st.n_nominal_eq]
     x0 = np.column_stack([st.eq_noise.whiten(c.values).ravel() for c in cols])
     twin = Column("twin_of_k1xx", 1e-9 * cols[0].values)  # a tiny copy of k1xx's regressor

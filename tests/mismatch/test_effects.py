@@ -60,14 +60,14 @@ def add_force(d, axis: int, e: np.ndarray) -> None:
 def recover(d, name: str, channel: str | None = None):
     """Fit the nominal model plus the candidate; return (coefficients, std) of its columns."""
     basis = null_basis(d.geometry)
-    state = fit_state(d, basis, [], [], 0, SETTINGS)
+    state = fit_state(d, basis, [], [], False, SETTINGS)
     ctx = Context(d, basis, state.eq_fit.residual, state.eq_noise)
     effect = next(e for e in CATALOGUE if e.name == name)
     cands = [c for c in effect.candidates(ctx) if channel is None or c.channel == channel]
     cand = cands[0]
     eq = cand.columns if cand.group == "equation" else []
     kin = cand.columns if cand.group == "kinematic" else []
-    st = fit_state(d, basis, eq, kin, 0, SETTINGS)
+    st = fit_state(d, basis, eq, kin, False, SETTINGS)
     fit = st.eq_fit if cand.group == "equation" else st.kin_fit
     k = len(cand.columns)
     return fit.coef[-k:], fit.std()[-k:], cand
@@ -144,7 +144,7 @@ def test_rotation_coupling_recovers_the_lever_arm(clean):
 
 def test_rotation_needs_witnesses(clean):
     basis = null_basis(clean.geometry)
-    st = fit_state(clean, basis, [], [], 0, SETTINGS)
+    st = fit_state(clean, basis, [], [], False, SETTINGS)
     ctx = Context(clean, basis, st.eq_fit.residual, st.eq_noise)
     assert next(e for e in CATALOGUE if e.name == "rotation_coupling").candidates(ctx) == []
 
@@ -191,31 +191,35 @@ def test_glitch_is_found_where_it_is(clean):
     d = copy.deepcopy(clean)
     add_force(d, 1, 3e-11 * glitch_shape(d.time - 400.0, 4.0, "exp"))
     basis = null_basis(d.geometry)
-    st = fit_state(d, basis, [], [], 0, SETTINGS)
+    st = fit_state(d, basis, [], [], False, SETTINGS)
     ctx = Context(d, basis, st.eq_fit.residual, st.eq_noise)
     (cand,) = Glitch().candidates(ctx)
     assert cand.channel == "x2"
     assert abs(cand.fixed["t0_s"] - 400.0) <= 1.0
     assert 2.0 <= cand.fixed["decay_s"] <= 8.0  # width grid is a factor 2
-    st = fit_state(d, basis, cand.columns, [], 0, SETTINGS)
+    st = fit_state(d, basis, cand.columns, [], False, SETTINGS)
     amp, sd = st.eq_fit.coef[-1], st.eq_fit.std()[-1]
     assert abs(amp - 3e-11) < 0.25 * 3e-11 and sd < 0.1 * 3e-11
 
 
-def test_colored_noise_is_decided_by_the_ar_likelihood(clean):
-    rng = np.random.default_rng(3)
-    red = np.zeros(clean.n)
-    e = rng.standard_normal(clean.n) * 1e-12
-    for i in range(1, clean.n):
-        red[i] = 0.95 * red[i - 1] + e[i]
+def test_colored_noise_is_decided_by_the_red_noise_likelihood(clean):
+    # 1/f force noise on x1: ASD 1e-11 m s^-2/sqrt(Hz) at 1 mHz (white floor ~6e-13)
+    white = np.fft.rfft(np.random.default_rng(3).standard_normal(clean.n))
+    f = np.fft.rfftfreq(clean.n, clean.dt)
+    f[0] = f[1]
+    asd = 1e-11 * (1e-3 / f) ** 0.5  # PSD ~ 1/f
+    # unit white noise has ASD sqrt(2/fs): rescale each bin to the target ASD
+    red = np.fft.irfft(white * asd * math.sqrt(clean.fs / 2), n=clean.n)
     d = copy.deepcopy(clean)
     add_force(d, 0, red)
     basis = null_basis(d.geometry)
     for data, significant in ((clean, False), (d, True)):
-        st = fit_state(data, basis, [], [], 0, SETTINGS)
+        st = fit_state(data, basis, [], [], False, SETTINGS)
         (ev,) = [e for e in evaluate(data, basis, st, SETTINGS, set())
                  if e.candidate.effect == "colored_noise"]  # fmt: skip
-        assert (ev.p_holm < SETTINGS.alpha) is significant, ev.p_holm
+        assert (ev.p_holm < SETTINGS.alpha) is significant, (ev.p_holm, ev.candidate.fixed)
+        if significant:
+            assert all(0.5 <= g <= 1.75 for g in ev.candidate.fixed["exponent"])  # 1/f: 1
 
 
 def test_quantisation_step_is_recovered(clean):
@@ -224,11 +228,11 @@ def test_quantisation_step_is_recovered(clean):
     for a in range(4):
         add_force(d, a, q * np.round(d.force[a] / q) - d.force[a])
     basis = null_basis(d.geometry)
-    st = fit_state(d, basis, [], [], 0, SETTINGS)
+    st = fit_state(d, basis, [], [], False, SETTINGS)
     ctx = Context(d, basis, st.eq_fit.residual, st.eq_noise)
     (cand,) = ActuationQuantisation().candidates(ctx)
     assert abs(cand.fixed["q"] - q) < 0.01 * q
-    st = fit_state(d, basis, cand.columns, [], 0, SETTINGS)
+    st = fit_state(d, basis, cand.columns, [], False, SETTINGS)
     beta, sd = st.eq_fit.coef[-4:], st.eq_fit.std()[-4:]
     assert np.all(np.abs(beta - 1) < 4.5 * sd + 0.05), (beta, sd)
 

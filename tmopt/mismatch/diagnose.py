@@ -46,7 +46,7 @@ from tmopt.mismatch.fit import (
     solve_iv,
 )
 from tmopt.mismatch.locate import Locations, axis_directions, locate
-from tmopt.mismatch.noise_model import SpatialNoise, SpectralNoise, ar_fits, prediction_errors
+from tmopt.mismatch.noise_model import RED_EXPONENTS, SpatialNoise, SpectralNoise, fit_red
 
 __all__ = ["Settings", "Evaluation", "State", "Diagnosis", "diagnose", "fit_state"]
 
@@ -56,7 +56,6 @@ class Settings:
     alpha: float = cal.FAMILY_ALPHA
     locate_alpha: float = cal.LOCATE_ALPHA
     max_effects: int = 4
-    ar_max: int = 8
 
 
 @dataclass
@@ -65,7 +64,7 @@ class State:
 
     eq_cols: list[Column]
     kin_cols: list[Column]
-    ar_order: int
+    red: bool  # equation noise modelled as white + power-law red (colored_noise selected)
     eq_fit: FitResult
     eq_noise: SpatialNoise
     kin_fit: FitResult
@@ -85,7 +84,8 @@ class Evaluation:
 
     @property
     def dbic(self) -> float:
-        return self.glr - self.dof * math.log(self.n_obs)
+        """``glr - k ln n`` with k the fitted *and* searched parameters (BIC, Schwarz 1978)."""
+        return self.glr - (self.dof + self.candidate.n_searched) * math.log(self.n_obs)
 
 
 @dataclass
@@ -113,13 +113,14 @@ class Diagnosis:
 # ---------------------------------------------------------------------------- fitting
 
 
-def _fit_eq(target, cols, ar_order, order_max, rounds=2):
-    noise = SpatialNoise.estimate(solve(target, cols, lambda v: v).residual, order=order_max)
+def _fit_eq(target, cols, red: bool, rounds=2):
+    """Equation group: GLS with the noise model re-estimated from the residual."""
+    noise = SpatialNoise.estimate(solve(target, cols, lambda v: v).residual)
     fit = solve(target, cols, noise.whiten)
     for _ in range(rounds):
-        noise = SpatialNoise.estimate(fit.residual, order=order_max)
-        if ar_order:
-            noise = noise.with_ar(fit.residual, ar_order)
+        noise = SpatialNoise.estimate(fit.residual)
+        if red:
+            noise = noise.with_red(fit.residual)
         fit = solve(target, cols, noise.whiten)
     return fit, noise
 
@@ -135,14 +136,13 @@ def _fit_kin(target, cols, rounds=2):
 
 
 def fit_state(data: Data, basis: np.ndarray, eq_extra: list[Column], kin_extra: list[Column],
-              ar_order: int, settings: Settings) -> State:  # fmt: skip
+              red: bool, settings: Settings) -> State:  # fmt: skip
     """Fit the nominal model plus the given extra columns, noise models re-estimated."""
     eq_nom = nominal_equation_columns(data, basis)
     kin_nom = nominal_kinematic_columns(data)
-    eq_fit, eq_noise = _fit_eq(equation_target(data, basis), eq_nom + eq_extra, ar_order,
-                               settings.ar_max)  # fmt: skip
+    eq_fit, eq_noise = _fit_eq(equation_target(data, basis), eq_nom + eq_extra, red)
     kin_fit, kin_noise = _fit_kin(kinematic_target(data), kin_nom + kin_extra)
-    return State(eq_nom + eq_extra, kin_nom + kin_extra, ar_order, eq_fit, eq_noise, kin_fit,
+    return State(eq_nom + eq_extra, kin_nom + kin_extra, red, eq_fit, eq_noise, kin_fit,
                  kin_noise, len(eq_nom), len(kin_nom))  # fmt: skip
 
 
@@ -190,24 +190,17 @@ class _Group:
         return float(self.n * math.log(self.rss0 / rss1))
 
 
-def _colored_noise_eval(cand: Candidate, state: State, ar_max: int) -> Evaluation:
-    """LR of AR(p) vs white on the spatially whitened residual, p chosen by BIC."""
+def _colored_noise_eval(cand: Candidate, state: State, fs: float) -> Evaluation:
+    """Whittle LR of white + power-law red vs white, per spatially whitened channel
+    (2 parameters each: knee, exponent; the exponent is not identified under "white", so
+    the p-value carries its grid as a Davies/Bonferroni trials factor)."""
     w = state.eq_noise.spatial(state.eq_fit.residual)
-    m = w.shape[1] - ar_max
-    fits = [ar_fits(c, ar_max) for c in w]
-    best = None
-    for p in range(1, ar_max + 1):
-        lam = 0.0
-        for c in range(w.shape[0]):
-            x = w[c] - w[c].mean()
-            e = prediction_errors(x, fits[c][p - 1])
-            lam += m * math.log(np.mean(x[ar_max:] ** 2) / np.mean(e[ar_max:] ** 2))
-        ev = Evaluation(cand, lam, 2 * p, w.shape[0] * m, 1.0)
-        if best is None or ev.dbic > best.dbic:
-            best = ev
-    best.p_value = min(1.0, ar_max * float(stats.chi2.sf(best.glr, best.dof)))
-    best.candidate.fixed = {"ar_order": best.dof // 2}
-    return best
+    fits = [fit_red(c) for c in w]
+    lam = float(sum(f[3] for f in fits))
+    ev = Evaluation(cand, lam, 2 * w.shape[0], w.size, 1.0)
+    ev.p_value = min(1.0, len(RED_EXPONENTS) * float(stats.chi2.sf(lam, ev.dof)))
+    cand.fixed = {"knee_hz": [f[0] * fs for f in fits], "exponent": [f[1] for f in fits]}
+    return ev
 
 
 class _IVGroup:
@@ -299,8 +292,8 @@ def evaluate(data: Data, basis: np.ndarray, state: State, settings: Settings,
             if cand.key in exclude:
                 continue
             if cand.group == "noise":
-                if state.ar_order == 0:
-                    out.append(_colored_noise_eval(cand, state, settings.ar_max))
+                if not state.red:
+                    out.append(_colored_noise_eval(cand, state, data.fs))
                 continue
             g = groups[cand.group]
             lam = g.glr(cand.columns) if cand.twin is None else _joint(cand, groups)
@@ -409,7 +402,7 @@ def _identifiable(cand: Candidate, cols: list[Column], x0: np.ndarray, whiten,
 def _locate_state(data: Data, basis: np.ndarray, state: State, alpha: float) -> Locations:
     """Excess in both groups (alpha split between them)."""
     ew = state.eq_noise.whiten(state.eq_fit.residual)
-    t_eq = data.time[state.eq_noise.order :]
+    t_eq = data.time
     dirs = axis_directions(basis, np.linalg.cholesky(state.eq_noise.cov))
     loc = locate(ew, t_eq, data.fs, alpha / 2, dirs=dirs)
     kw = state.kin_noise.whiten(state.kin_fit.residual)
@@ -425,8 +418,7 @@ def _add(data, basis, state: State, ev: Evaluation, settings: Settings) -> State
     cand = ev.candidate
     if cand.group == "noise":
         return fit_state(data, basis, state.eq_cols[state.n_nominal_eq :],
-                         state.kin_cols[state.n_nominal_kin :], cand.fixed["ar_order"],
-                         settings)  # fmt: skip
+                         state.kin_cols[state.n_nominal_kin :], True, settings)  # fmt: skip
     eq_x = state.eq_cols[state.n_nominal_eq :]
     kin_x = state.kin_cols[state.n_nominal_kin :]
     tag = f"#{len(eq_x) + len(kin_x)}"  # unique names if an effect is selected twice
@@ -435,28 +427,28 @@ def _add(data, basis, state: State, ev: Evaluation, settings: Settings) -> State
     if cand.twin is not None:
         cand.twin = Column(f"{cand.twin.name}{tag}", cand.twin.values, cand.twin.instrument)
     eq_c, kin_c, _ = _columns([ev])
-    return fit_state(data, basis, eq_x + eq_c, kin_x + kin_c, state.ar_order, settings)
+    return fit_state(data, basis, eq_x + eq_c, kin_x + kin_c, state.red, settings)
 
 
-def _columns(chosen: list[Evaluation]) -> tuple[list[Column], list[Column], int]:
-    """Equation columns, kinematic columns (incl. accelerometer twins) and AR order."""
-    eq, kin, ar = [], [], 0
+def _columns(chosen: list[Evaluation]) -> tuple[list[Column], list[Column], bool]:
+    """Equation columns, kinematic columns (incl. accelerometer twins), red noise or not."""
+    eq, kin, red = [], [], False
     for ev in chosen:
         c = ev.candidate
         if c.group == "noise":
-            ar = int(c.fixed["ar_order"])
+            red = True
         elif c.group == "equation":
             eq += c.columns
             if c.twin is not None and np.any(c.twin.instrument):
                 kin.append(c.twin)
         else:
             kin += c.columns
-    return eq, kin, ar
+    return eq, kin, red
 
 
 def _rebuild(data, basis, chosen: list[Evaluation], settings: Settings) -> State:
-    eq, kin, ar = _columns(chosen)
-    return fit_state(data, basis, eq, kin, ar, settings)
+    eq, kin, red = _columns(chosen)
+    return fit_state(data, basis, eq, kin, red, settings)
 
 
 def _still_needed(data, basis, chosen: list[Evaluation], i: int, settings: Settings,
@@ -466,8 +458,8 @@ def _still_needed(data, basis, chosen: list[Evaluation], i: int, settings: Setti
     st = _rebuild(data, basis, others, settings)
     cand = chosen[i].candidate
     if cand.group == "noise":
-        ev = _colored_noise_eval(copy.copy(cand), st, settings.ar_max)
-        lam, dof, n, trials = ev.glr, ev.dof, ev.n_obs, settings.ar_max
+        ev = _colored_noise_eval(copy.copy(cand), st, data.fs)
+        lam, dof, n, trials = ev.glr, ev.dof, ev.n_obs, len(RED_EXPONENTS)
     else:
         groups = {
             "equation": _Group(None, st.eq_cols, st.eq_fit, st.eq_noise.whiten),
@@ -477,7 +469,7 @@ def _still_needed(data, basis, chosen: list[Evaluation], i: int, settings: Setti
         lam = g.glr(cand.columns) if cand.twin is None else _joint(cand, groups)
         dof, n, trials = len(cand.columns), g.n, cand.trials
     p = min(1.0, n_tests * trials * float(stats.chi2.sf(lam, dof)))
-    return p < settings.alpha and lam - dof * math.log(n) > 0
+    return p < settings.alpha and lam - (dof + cand.n_searched) * math.log(n) > 0
 
 
 def _backward(data, basis, selected: list, settings: Settings, n_tests: int) -> list:
@@ -500,7 +492,7 @@ def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
     """Fit, locate, explain (greedy, calibrated), re-identify; see the module docstring."""
     settings = Settings() if settings is None else settings
     basis = null_basis(data.geometry)
-    state = before = fit_state(data, basis, [], [], 0, settings)
+    state = before = fit_state(data, basis, [], [], False, settings)
     selected, steps = [], []
     exclude: set[str] = set()
     for _ in range(settings.max_effects):
@@ -552,25 +544,15 @@ def whiteness_p(state: State) -> float:
 
 
 def bic(state: State) -> float:
-    """BIC of both groups: Gaussian likelihoods with the noise parameters at their MLE
-    (equation: 2x2 covariance, or AR innovation variances; kinematic: per-axis level of
+    """BIC of both groups: Gaussian likelihoods with the noise levels profiled (equation:
+    spatial covariance and, when modelled, the red spectrum; kinematic: per-axis level of
     the smoothed spectrum)."""
-    noise = state.eq_noise
-    m = state.eq_fit.residual.shape[1] - noise.order
-    logdet_l = float(np.linalg.slogdet(np.linalg.cholesky(noise.cov))[1])
-    if state.ar_order:
-        e = noise.whiten(state.eq_fit.residual)
-        var = [float(np.mean(c**2)) * v for c, v in zip(e, noise.ar_var)]
-        ll = sum(-0.5 * m * (math.log(v) + math.log(2 * math.pi) + 1) for v in var)
-    else:
-        w = noise.spatial(state.eq_fit.residual)[:, noise.order :]
-        det = float(np.linalg.slogdet(w @ w.T / m)[1])
-        ll = -0.5 * m * (det + w.shape[0] * (math.log(2 * math.pi) + 1))
-    ll -= m * logdet_l
+    ll = state.eq_noise.loglik(state.eq_fit.residual)
+    n_eq = state.eq_fit.residual.size
     kw = state.kin_noise.whiten(state.kin_fit.residual)
     ll += float(sum(-0.5 * kw.shape[1] * math.log(np.mean(c**2)) for c in kw))
-    p = len(state.eq_cols) + len(state.kin_cols) + 2 * state.ar_order + 3
-    return float(-2 * ll + p * math.log(2 * m + kw.size))
+    p = len(state.eq_cols) + len(state.kin_cols) + 3 + (4 if state.red else 0)
+    return float(-2 * ll + p * math.log(n_eq + kw.size))
 
 
 def summary(data: Data, basis: np.ndarray, state: State) -> dict:

@@ -21,7 +21,6 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
-from scipy import signal
 
 from tmopt.mismatch.fit import (
     AXES,
@@ -73,6 +72,7 @@ class Candidate:
     derived: dict = field(default_factory=dict)  # how to report a combination of coefs
     text: str = ""
     twin: Column | None = None  # the same parameter's prediction in the kinematic group
+    n_searched: int = 0  # parameters found by search (counted in the BIC penalty)
 
     @property
     def key(self) -> str:
@@ -412,43 +412,31 @@ class Glitch(Effect):
         t0 = float(d.time[t0_idx])
         return [Candidate(
             self.name, AXES[axis], "equation", ["dv"], ["m s^-1"], [col], None, trials,
-            fixed={"t0_s": t0, "decay_s": float(beta), "shape": kind},
+            fixed={"t0_s": t0, "decay_s": float(beta), "shape": kind}, n_searched=2,
             text=self.explanation.format(ch=AXES[axis], where=TMS[AXES[axis]], t0=t0,
                                          beta=beta, kind=kind),
         )]  # fmt: skip
 
     def search(self, ctx: Context):
         """Max over axis, width, shape, onset of the matched-filter statistic
-        ``(e.t)^2/|t|^2`` on the fully whitened residual ``e`` (spatial, then the AR
-        prediction-error filter when coloured noise is modelled), with the template ``t``
-        whitened the same way, so the statistic is chi^2_1 at every trial under the noise
-        model."""
+        ``(e.t)^2/|t|^2`` on the whitened residual ``e``, with the template ``t`` (the
+        glitch on axis a, seen in both f_B-free combinations) whitened by the same noise
+        model, so the statistic is chi^2_1 at every trial under the noise model."""
         d = ctx.data
         noise = ctx.eq_noise
-        w = noise.spatial(ctx.eq_residual)
-        dirs = np.linalg.solve(np.linalg.cholesky(noise.cov), ctx.basis.T)  # (2, 4)
-        filters = [(np.concatenate([[1.0], -phi]), math.sqrt(v))
-                   for phi, v in zip(noise.ar, noise.ar_var)]  # fmt: skip
-        filters = filters or [(np.ones(1), 1.0)] * w.shape[0]
-        m = w.shape[1]
+        e = noise.whiten(ctx.eq_residual)
+        m = e.shape[1]
         nfft = 1 << int(math.ceil(math.log2(2 * m)))
-        innov = []
-        for c, (a_c, sd) in enumerate(filters):
-            e = signal.lfilter(a_c, [1.0], w[c]) / sd
-            e[: a_c.size - 1] = 0.0  # no prediction-error value before the filter fills
-            innov.append(np.fft.rfft(e, nfft))
+        ef = np.fft.rfft(e, nfft, axis=1)
         best, trials = None, 0
         for beta in self.widths(d):
             for kind in self.KINDS:
                 g = glitch_shape(np.arange(m) * d.dt, beta, kind)
-                corr_c, tail_c = [], []
-                for (a_c, sd), e_f in zip(filters, innov):
-                    ga = signal.lfilter(a_c, [1.0], g) / sd
-                    corr_c.append(np.fft.irfft(e_f * np.conj(np.fft.rfft(ga, nfft)), nfft)[:m])
-                    tail_c.append(np.cumsum(ga**2)[::-1])  # template cut at the record's end
                 for a in range(4):
-                    corr = sum(dirs[c, a] * corr_c[c] for c in range(len(filters)))
-                    energy = sum(dirs[c, a] ** 2 * tail_c[c] for c in range(len(filters)))
+                    t = noise.whiten(axis_column(ctx.basis, a, g))
+                    corr = np.fft.irfft(ef * np.conj(np.fft.rfft(t, nfft, axis=1)), nfft,
+                                        axis=1)[:, :m].sum(axis=0)  # fmt: skip
+                    energy = np.cumsum(np.sum(t**2, axis=0))[::-1]  # cut at the record's end
                     # onsets whose template is mostly cut off by the record's end: skipped
                     lam = np.where(energy >= 0.5 * energy[0], corr**2 / energy[0], 0.0)
                     k = int(np.argmax(lam))
@@ -459,18 +447,21 @@ class Glitch(Effect):
 
 
 class ColoredNoise(Effect):
-    """The noise is not white: an AR(p) noise model per f_B-free combination (Burg),
-    decided by a likelihood-ratio (and whiteness) test rather than by a regressor."""
+    """The noise is not white: white + power-law red spectrum ``1 + (f_k/f)^gamma`` per
+    f_B-free combination (Whittle likelihood), decided by a likelihood-ratio test rather
+    than by a regressor."""
 
     name = "colored_noise"
     group = "noise"
     explanation = ("the residual noise is coloured (its spectrum is not flat): e.g. 1/f "
-                   "actuation or readout noise; modelled as AR(p)")  # fmt: skip
+                   "actuation or accelerometer noise; modelled as white + power-law "
+                   "red")  # fmt: skip
     needs = "nothing: a noise-model property, tested on the residual spectrum"
     profiled = True
 
     def candidates(self, ctx: Context) -> list[Candidate]:
-        return [Candidate(self.name, "equation residual", "noise", ["ar_order"], ["1"],
+        return [Candidate(self.name, "equation residual", "noise", ["knee_hz", "exponent"],
+                          ["Hz", "1"],
                           text=self.explanation)]  # fmt: skip
 
 
@@ -503,7 +494,7 @@ class ActuationQuantisation(Effect):
         trials *= 2**4  # rounding or truncation chosen per axis
         return [Candidate(self.name, "all axes", "equation", ["beta_x1", "beta_x2", "beta_y1",
                                                               "beta_y2"], ["1"] * 4, cols,
-                          None, trials, fixed={"q": q},
+                          None, trials, fixed={"q": q}, n_searched=1,
                           text=self.explanation.format(q=q))]  # fmt: skip
 
     def _proj(self, ctx: Context, i: int) -> np.ndarray:

@@ -4,8 +4,8 @@ Two groups of residuals are fitted (see :mod:`tmopt.mismatch.fit`):
 
 * the **equation** group, two f_B-free combinations of the per-axis equation errors of
   Eqs. 9-10 (white, with a 2x2 covariance, by construction of the simulator; spatial
-  whitening by the Cholesky factor), optionally with an AR(p) model per whitened channel
-  (``colored_noise``);
+  whitening by the Cholesky factor), optionally with a white + power-law red spectrum per
+  whitened channel (``colored_noise``);
 * the **kinematic** group, the four second-difference consistency residuals between
   displacement readouts and measured accelerations (coloured by construction: the second
   difference of white readout noise is blue, the acceleration noise flat), whitened in the
@@ -22,10 +22,9 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from statsmodels.tsa.stattools import acovf, levinson_durbin
 
-__all__ = ["robust_cov", "SpatialNoise", "SpectralNoise", "band_psd", "ar_fits",
-           "prediction_errors"]  # fmt: skip
+__all__ = ["robust_cov", "SpatialNoise", "SpectralNoise", "band_psd", "fit_red", "red_shape",
+           "RED_EXPONENTS"]  # fmt: skip
 
 _MAD = 1.4826  # MAD -> standard deviation for Gaussian data
 
@@ -54,87 +53,103 @@ def robust_cov(residual: np.ndarray) -> np.ndarray:
     return (v * np.maximum(w, floor)) @ v.T  # keep it positive definite
 
 
-def ar_fits(x: np.ndarray, max_order: int) -> list[np.ndarray]:
-    """Yule-Walker AR(1..max_order) coefficients of ``x`` (Levinson-Durbin recursion on
-    the biased autocovariance; statsmodels), all orders from one recursion."""
-    acov = acovf(x - x.mean(), nlag=max_order, fft=True)
-    *_, phi = levinson_durbin(acov, nlags=max_order, isacov=True)
-    return [np.asarray(phi[:p, p], dtype=float) for p in range(1, max_order + 1)]
+RED_EXPONENTS = np.arange(0.5, 4.01, 0.25)  # searched power-law exponents (Davies trials)
 
 
-def prediction_errors(x: np.ndarray, phi: np.ndarray) -> np.ndarray:
-    """``e_n = x_n - sum_j phi_j x_{n-j}`` (first ``len(phi)`` samples left as they are)."""
-    e = x.copy()
-    for j, p in enumerate(phi, start=1):
-        e[j:] -= p * x[:-j]
-    return e
+def red_shape(f: np.ndarray, knee: float, gamma: float) -> np.ndarray:
+    """White plus power-law red noise, ``1 + (knee/f)^gamma`` (the f^-1..f^-4 tails of
+    LISA Pathfinder's acceleration noise, Armano et al., PRL 116, 231101 (2016))."""
+    return 1.0 + (knee / f) ** gamma
+
+
+def _rfft_freqs(m: int) -> np.ndarray:
+    """rfft frequencies in cycles per sample with the DC bin set to half the first bin."""
+    f = np.fft.rfftfreq(m)
+    f[0] = 0.5 * f[1]
+    return f
+
+
+def fit_red(w: np.ndarray) -> tuple[float, float, float, float]:
+    """Whittle fit of ``level (1 + (knee/f)^gamma)`` to one unit-scale channel (M,).
+
+    Returns ``(knee [cycles/sample], gamma, level, lr)`` with ``lr = 2 (LL_red - LL_white)``
+    (both levels profiled; the mean, fitted by the bias terms, is excluded).
+    """
+    i = np.abs(np.fft.rfft(w - w.mean())) ** 2 / w.size
+    f = _rfft_freqs(w.size)
+    i, f = i[1:], f[1:]
+    ll_white = -i.size * (math.log(np.mean(i)) + 1.0)
+    best = (0.0, 1.0, float(np.mean(i)), 0.0)
+    for gamma in RED_EXPONENTS:
+        for knee in np.geomspace(f[0], 0.5, 60):
+            shape = red_shape(f, knee, gamma)
+            level = float(np.mean(i / shape))
+            ll = -float(np.sum(np.log(level * shape))) - i.size
+            if 2 * (ll - ll_white) > best[3]:
+                best = (float(knee), float(gamma), level, 2 * (ll - ll_white))
+    return best
 
 
 @dataclass
 class SpatialNoise:
-    """White Gaussian noise with covariance ``cov`` (C, C), optionally AR(p) per channel.
-
-    The AR part (``ar[c]`` = coefficients ``phi_1..phi_p`` of channel c after spatial
-    whitening) models coloured noise; whitening then applies the prediction-error filter
-    ``e_n = w_n - sum_j phi_j w_{n-j}`` and drops the first ``order`` samples (conditional
-    likelihood).  ``order`` is the largest AR order *allowed* in this analysis, so that
-    models with and without AR are compared on the same samples.
+    """Gaussian noise with covariance ``cov`` (C, C) between channels, white -- or, with
+    ``red`` = [(knee, gamma, level)] per spatially whitened channel, coloured with the PSD
+    ``level (1 + (knee/f)^gamma)`` (f in cycles/sample), whitened in the frequency domain.
     """
 
     cov: np.ndarray
-    ar: list[np.ndarray] = field(default_factory=list)
-    ar_var: list[float] = field(default_factory=list)
-    order: int = 0
+    red: list[tuple[float, float, float]] = field(default_factory=list)
+    order: int = 0  # samples dropped by whitening (none; kept for callers' alignment)
 
     @classmethod
-    def estimate(cls, residual: np.ndarray, order: int = 0) -> SpatialNoise:
-        return cls(robust_cov(residual), order=order)
+    def estimate(cls, residual: np.ndarray) -> SpatialNoise:
+        return cls(robust_cov(residual))
 
     @property
     def n_params(self) -> int:
         c = self.cov.shape[0]
-        return c * (c + 1) // 2 + sum(a.size for a in self.ar)
+        return c * (c + 1) // 2 + 3 * len(self.red)
 
     def spatial(self, arr: np.ndarray) -> np.ndarray:
         chol = np.linalg.cholesky(self.cov)
         return np.linalg.solve(chol, arr)
 
-    def whiten(self, arr: np.ndarray) -> np.ndarray:
-        """(C, M) -> (C, M - order), unit-variance white when the model holds."""
-        w = self.spatial(arr)
-        if not self.ar:
-            return w[:, self.order :]
-        out = np.empty((w.shape[0], w.shape[1] - self.order))
-        for c, (phi, var) in enumerate(zip(self.ar, self.ar_var)):
-            out[c] = prediction_errors(w[c], phi)[self.order :] / math.sqrt(var)
-        return out
+    def psd(self, m: int) -> np.ndarray:
+        """(C, m//2 + 1) PSD of the spatially whitened channels on the rfft grid."""
+        f = _rfft_freqs(m)
+        return np.array([lv * red_shape(f, k, g) for k, g, lv in self.red])
 
-    def with_ar(self, residual: np.ndarray, p: int) -> SpatialNoise:
-        """The same spatial part with an AR(p) (Yule-Walker) fitted to each whitened channel;
-        innovation variances from the prediction errors on the compared samples."""
+    def whiten(self, arr: np.ndarray) -> np.ndarray:
+        """(C, M) -> (C, M), unit-variance white when the model holds."""
+        w = self.spatial(arr)
+        if not self.red:
+            return w
+        x = np.fft.rfft(w, axis=1) / np.sqrt(self.psd(w.shape[1]))
+        return np.fft.irfft(x, n=w.shape[1], axis=1)
+
+    def with_red(self, residual: np.ndarray) -> SpatialNoise:
+        """The same spatial part with the power-law red model fitted to each channel."""
         w = self.spatial(residual)
-        ar, var = [], []
-        for c in range(w.shape[0]):
-            phi = ar_fits(w[c], p)[-1]
-            ar.append(phi)
-            var.append(float(np.mean(prediction_errors(w[c], phi)[self.order :] ** 2)))
-        return SpatialNoise(self.cov, ar, var, self.order)
+        return SpatialNoise(self.cov, [fit_red(c)[:3] for c in w])
 
     def loglik(self, residual: np.ndarray) -> float:
-        """Exact (conditional on the first ``order`` samples) Gaussian log-likelihood."""
+        """Gaussian (Whittle for the red part) log-likelihood, scale profiled."""
         e = self.whiten(residual)
-        m = e.shape[1]
-        logdet = float(np.linalg.slogdet(self.cov)[1]) * m / 2.0
-        logdet += sum(0.5 * m * math.log(v) for v in self.ar_var)
-        return float(-0.5 * np.sum(e**2) - 0.5 * e.size * math.log(2 * math.pi) - logdet)
+        n, m = e.size, e.shape[1]
+        ll = -0.5 * n * (math.log(float(np.sum(e**2)) / n) + 1 + math.log(2 * math.pi))
+        ll -= m * float(np.linalg.slogdet(np.linalg.cholesky(self.cov))[1])
+        if self.red:
+            ll -= float(np.sum(np.log(self.psd(m))))  # both halves of the spectrum
+        return ll
 
     def describe(self) -> dict:
         return {
-            "kind": "white" if not self.ar else f"AR({self.ar[0].size})",
+            "kind": "white" if not self.red else "white + power-law red",
             "std": np.sqrt(np.diag(self.cov)).tolist(),
             "correlation": float(self.cov[0, 1] / math.sqrt(self.cov[0, 0] * self.cov[1, 1]))
             if self.cov.shape[0] > 1 else 0.0,
-            "ar": [a.tolist() for a in self.ar],
+            "red": [{"knee_cycles_per_sample": k, "exponent": g, "level": lv}
+                    for k, g, lv in self.red],
         }  # fmt: skip
 
 

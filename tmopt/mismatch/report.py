@@ -30,9 +30,9 @@ def _coefs(state: State, cand) -> tuple[np.ndarray, np.ndarray]:
 def _effect_entry(dg: Diagnosis, ev, alts) -> dict:
     cand = ev.candidate
     if cand.group == "noise":
-        noise = dg.after.eq_noise
-        params = {"ar_order": int(cand.fixed["ar_order"]),
-                  "ar_coefficients": [a.tolist() for a in noise.ar]}  # fmt: skip
+        fs = dg.data.fs
+        red = dg.after.eq_noise.red
+        params = {"knee_hz": [k * fs for k, _, _ in red], "exponent": [g for _, g, _ in red]}
         unc: dict = {}
     else:
         phys = cand.physical(*_coefs(dg.after, cand))
@@ -130,7 +130,7 @@ def build_report(dg: Diagnosis) -> dict:
         "stiffness": {k: _stiff(s) for k, s in (("before", dg.before), ("after", dg.after))},
         "diagnostics": _diagnostics(dg),
         "settings": {"family_alpha": dg.settings.alpha, "locate_alpha": dg.settings.locate_alpha,
-                     "max_effects": dg.settings.max_effects, "ar_max": dg.settings.ar_max},
+                     "max_effects": dg.settings.max_effects},
         "notes": list(dg.data.notes),
     }  # fmt: skip
     rep["conclusion"] = conclusion(rep)
