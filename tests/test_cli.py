@@ -114,3 +114,22 @@ def test_read_only_output_folder_is_refused(tmp_path):
             preflight([f"hydra.run.dir={locked}/run"])
     finally:
         locked.chmod(0o700)
+
+
+def test_keys_of_a_swept_group_are_forced_so_hydra_accepts_them():
+    from tmopt.cli import force_swept_group_keys
+
+    args = ["-m", "algorithm=mgsaea,mgsaea_ipc", "algorithm.n_init=45", "budget=60", "seed=1"]
+    assert force_swept_group_keys(args) == [
+        "-m", "algorithm=mgsaea,mgsaea_ipc", "++algorithm.n_init=45", "budget=60", "seed=1"]
+    single = ["algorithm=mgsaea", "algorithm.n_init=45"]
+    assert force_swept_group_keys(single) == single  # not a sweep: Hydra takes it as is
+    assert preflight(force_swept_group_keys(args + ["problem=mw1"])) == 2
+
+
+def test_a_forced_key_is_still_refused_by_an_option_without_it():
+    from tmopt.cli import force_swept_group_keys
+
+    args = ["-m", "algorithm=mgsaea,nsga2", "algorithm.n_init=45", "problem=mw1"]
+    with pytest.raises(ConfigError, match="algorithm=nsga2: unknown key algorithm.n_init"):
+        preflight(force_swept_group_keys(args))

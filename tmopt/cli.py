@@ -68,9 +68,7 @@ def preflight(args: list[str]) -> int:
 
 
 def _as_override(ov, value: str) -> str:
-    prefix = "++" if ov.is_force_add() else ("+" if ov.is_add() else ("~" if ov.is_delete()
-                                                                       else ""))
-    return f"{prefix}{ov.get_key_element()}={value}"
+    return f"{ov.get_key_element()}={value}"  # the key element keeps its +/++/~ prefix
 
 
 def _check_group_values(key: str, vals: list[str]) -> None:
@@ -213,8 +211,31 @@ def _hydra_main(cfg: DictConfig) -> None:
     run_from_config(cfg)
 
 
+def force_swept_group_keys(args: list[str]) -> list[str]:
+    """In a sweep over a group, override that group's keys with ``++``.
+
+    Hydra composes a sweep's base configuration with the group's *default* option, where
+    a key of the swept options (``algorithm.n_init`` while sweeping ``algorithm=a,b``)
+    may not exist, and refuses it. ``++`` (add or override) lets each job's own option
+    take it; pre-flight still rejects a key that an option does not accept.
+    """
+    if not MULTIRUN_FLAGS.intersection(args):
+        return args
+    try:
+        parsed = OverridesParser.create().parse_overrides(
+            [a for a in args if not a.startswith("-")])
+    except Exception:  # noqa: BLE001 - pre-flight reports grammar errors
+        return args
+    swept = {ov.get_key_element() for ov in parsed
+             if ov.is_sweep_override() and ov.get_key_element() in GROUPS}
+    return [f"++{a}" if not a.startswith(("-", "+", "~")) and "=" in a
+            and a.split("=", 1)[0].split(".", 1)[0] in swept and "." in a.split("=", 1)[0]
+            else a for a in args]
+
+
 def main() -> None:
     """Console entry: pre-flight every configuration, then hand over to Hydra."""
+    sys.argv[1:] = force_swept_group_keys(sys.argv[1:])
     args = sys.argv[1:]
     if not INFO_FLAGS.intersection(args) and not any(a.startswith("--config") for a in args):
         try:
