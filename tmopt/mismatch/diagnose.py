@@ -488,20 +488,55 @@ def _backward(data, basis, selected: list, settings: Settings, n_tests: int) -> 
     return selected
 
 
+def _significant(evals: list[Evaluation], alpha: float) -> list[Evaluation]:
+    return [e for e in evals if e.p_holm < alpha and e.dbic > 0]
+
+
+def _deterministic_instead(data, basis, state: State, evals: list[Evaluation],
+                           settings: Settings, exclude: set[str], n_tests: int):  # fmt: skip
+    """When coloured noise is the best explanation, try up to two deterministic effects
+    first: a flexible red spectrum can stand in for slow deterministic terms (attitude
+    slews, drifts, the tone of a gain error) and, once in, hide them.  Returns the
+    deterministic evaluations and state if they leave the noise white, else None."""
+    trial, chosen, ex = state, [], set(exclude)
+    for _ in range(2):
+        det = [e for e in _significant(evals, settings.alpha) if e.candidate.group != "noise"]
+        if not det:
+            return None
+        best = max(det, key=lambda e: e.dbic)
+        if best.candidate.effect != "glitch":
+            ex.add(best.candidate.key)
+        alts = [e for e in det if e is not best and best.dbic - e.dbic < cal.AMBIGUOUS_DBIC]
+        trial = _add(data, basis, trial, best, settings)
+        chosen.append((best, alts))
+        evals = evaluate(data, basis, trial, settings, ex)
+        noise = [e for e in evals if e.candidate.group == "noise"]
+        if not noise or n_tests * noise[0].p_value >= settings.alpha:
+            return chosen, trial, ex
+    return None
+
+
 def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
-    """Fit, locate, explain (greedy, calibrated), re-identify; see the module docstring."""
+    """Fit, locate, explain (stepwise, calibrated), re-identify; see the module docstring."""
     settings = Settings() if settings is None else settings
     basis = null_basis(data.geometry)
     state = before = fit_state(data, basis, [], [], False, settings)
     selected, steps = [], []
     exclude: set[str] = set()
-    for _ in range(settings.max_effects):
+    while len(selected) < settings.max_effects:
         evals = evaluate(data, basis, state, settings, exclude)
         steps.append(evals)
-        sig = [e for e in evals if e.p_holm < settings.alpha and e.dbic > 0]
+        sig = _significant(evals, settings.alpha)
         if not sig:
             break
         best = max(sig, key=lambda e: e.dbic)
+        if best.candidate.group == "noise":
+            alt = _deterministic_instead(data, basis, state, evals, settings, exclude,
+                                         len(steps[0]))  # fmt: skip
+            if alt is not None:
+                chosen, state, exclude = alt
+                selected += chosen
+                continue
         alts = [e for e in sig if e is not best and best.dbic - e.dbic < cal.AMBIGUOUS_DBIC]
         if best.candidate.effect not in ("glitch",):
             exclude.add(best.candidate.key)

@@ -229,7 +229,8 @@ class CubicStiffness(Effect):
 
 class StiffnessDrift(Effect):
     """Stiffness changing linearly in time (Sec. 1: "possible long-term drift"):
-    ``k(t) = k + kdot (t - t_mid)``, term ``kdot (t - t_mid) x_a``."""
+    ``k(t) = k + kdot (t - t_0)``, term ``kdot (t - t_0) x_a``: the identified ``k`` is
+    then the stiffness at the start of the record."""
 
     name = "stiffness_drift"
     explanation = ("the stiffness of {ch} ({where}) drifts linearly during the run "
@@ -237,15 +238,16 @@ class StiffnessDrift(Effect):
     needs = "a longer run with the excitation kept on throughout"
 
     def candidates(self, ctx: Context) -> list[Candidate]:
-        t = ctx.data.centred_time
-        span = max(float(t[-1] - t[0]), ctx.data.dt)
+        t = ctx.data.time - ctx.data.time[0]
+        span = max(float(t[-1]), ctx.data.dt)
         return [_eq_candidate(self, a, "kdot", "s^-3", t * ctx.data.x[i], ctx, i, 1e-7 / span)
                 for i, a in enumerate(AXES)]  # fmt: skip
 
 
 class BiasDrift(Effect):
     """Bias disturbance f_D changing linearly in time ("very slowly changing", Eq. 2):
-    term ``fdot (t - t_mid)``.  Only its f_B-free part is visible (a common drift is f_B)."""
+    term ``fdot (t - t_0)`` (the bias terms then hold f_D at the start of the record).
+    Only its f_B-free part is visible (a common drift is f_B)."""
 
     name = "bias_drift"
     explanation = ("the bias force on {ch} ({where}) drifts linearly during the run "
@@ -253,8 +255,8 @@ class BiasDrift(Effect):
     needs = "a longer run (the drift's signature grows with the duration squared)"
 
     def candidates(self, ctx: Context) -> list[Candidate]:
-        t = ctx.data.centred_time
-        span = max(float(t[-1] - t[0]), ctx.data.dt)
+        t = ctx.data.time - ctx.data.time[0]
+        span = max(float(t[-1]), ctx.data.dt)
         return [_eq_candidate(self, a, "fdot", "m s^-3", t, ctx, i, 1e-10 / span)
                 for i, a in enumerate(AXES)]  # fmt: skip
 
