@@ -127,7 +127,23 @@ def fig10(run: RunRecord, png: Path, csv_path: Path, why: str) -> str:
     d = res.design(0)
     _fig10_plot(d, res.config.theta_true[0], png, f"Fig. 10: {why} (re-simulated)")
     _fig10_csv(d, csv_path)
-    return _fig10_caption(run, check, why)
+    return _fig10_caption(run, check, why) + " " + _tracking_text(d)
+
+
+#: The paper's Fig. 10 text judges tracking after the controller has settled (3 min).
+SETTLED_AFTER_S = 180.0
+
+
+def _tracking_text(d: dict) -> str:
+    """Max |reference - true x| over the run and after 3 min, TM1 and TM2 (paper Sec. 4.4)."""
+    late = d["time"] >= SETTLED_AFTER_S
+    parts = []
+    for k in ("1", "2"):
+        err = np.abs(d[f"ref_x{k}"] - d[f"x{k}_true"])
+        parts.append(f"TM{k} max tracking error {err.max():.2e} m, after "
+                     f"{SETTLED_AFTER_S:.0f} s {err[late].max():.2e} m")
+        parts.append(f"max |x{k}| {np.abs(d[f'x{k}_true']).max() * 1e3:.3f} mm")
+    return "; ".join(parts) + "."
 
 
 def _fig10_plot(d: dict, truth: float, path: Path, title: str) -> None:
