@@ -76,7 +76,9 @@ def sweep_commands(args: argparse.Namespace) -> list[list[str]]:
     ``algorithm`` is the first override, so Hydra runs one algorithm's runs together."""
     algos = algorithms(args)
     head = [sys.executable, "-m", "tmopt", "-m"]
-    tail = [f"problem={args.problems}", f"problem.n_var={args.n_var}",
+    # n_var as a one-value sweep: a plain override would also be applied to the default
+    # problem (stiffness, which has no n_var) when Hydra composes the sweep's base config
+    tail = [f"problem={args.problems}", f"problem.n_var=choice({args.n_var})",
             f"seed=range(0,{args.seeds})", f"name={args.name}", f"surrogate={args.surrogate}",
             "plots=false", f"hydra/launcher={args.launcher}"]
     if args.launcher in ("local_parallel", "joblib"):
