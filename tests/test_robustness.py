@@ -292,3 +292,32 @@ def test_same_config_and_seed_give_identical_archives(algorithm):
     _same_archives(first, second)
     other = _small_run(algorithm, seed=12)
     assert not np.array_equal(first.X[: len(other)], other.X[: len(first)])
+
+
+@pytest.mark.slow
+def test_killed_at_random_moments_until_done_loses_nothing(tmp_path):
+    """SIGKILL at random moments (mid-batch, mid-write), resume, repeat until it finishes."""
+    reference, run = tmp_path / "reference", tmp_path / "run"
+    _finish([*SLOW_RUN, f"hydra.run.dir={reference}"])
+    rng = np.random.default_rng(5)
+    thresholds = sorted(rng.choice(np.arange(20, 240, 10), size=6, replace=False))
+    kills, previous = 0, None
+    for rows in [*thresholds, None]:
+        proc = _tmopt([*SLOW_RUN, f"hydra.run.dir={run}"])
+        if rows is None:  # the last start runs to the end
+            assert proc.wait(600) == 0
+        else:
+            while proc.poll() is None and _rows(run / "archive.h5") < rows:
+                time.sleep(0.02)
+            time.sleep(float(rng.uniform(0.0, 0.35)))  # lands mid-batch or mid-write
+            proc.send_signal(signal.SIGKILL)
+            proc.wait(30)
+            kills += 1
+        now = read_archive(run / "archive.h5")  # never half-written
+        if previous is not None:  # nothing archived is ever lost or changed
+            assert len(now) >= len(previous)
+            _same_archives(previous, now.rows(0, len(previous)), with_wall_time=True)
+        previous = now
+    _same_archives(read_archive(reference / "archive.h5"), read_archive(run / "archive.h5"))
+    assert _result(run) == _result(reference)
+    print(f"\nkilled {kills} times; resumed to the uninterrupted result; 0 evaluations lost")
