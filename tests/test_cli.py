@@ -133,3 +133,10 @@ def test_a_forced_key_is_still_refused_by_an_option_without_it():
     args = ["-m", "algorithm=mgsaea,nsga2", "algorithm.n_init=45", "problem=mw1"]
     with pytest.raises(ConfigError, match="algorithm=nsga2: unknown key algorithm.n_init"):
         preflight(force_swept_group_keys(args))
+
+
+def test_run_folders_do_not_depend_on_override_prefixes():
+    from tmopt.config import run_folder_name
+
+    assert run_folder_name("++algorithm.n_init=45,algorithm=mgsaea,budget=1e+5,~plots") == \
+        "algorithm.n_init=45,algorithm=mgsaea,budget=1e+5,plots"

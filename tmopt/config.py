@@ -14,6 +14,7 @@ from __future__ import annotations
 import hashlib
 import inspect
 import json
+import re
 import types
 import typing
 from collections.abc import Sequence
@@ -63,8 +64,16 @@ class RunConfig:
     extras: dict = field(default_factory=dict)
 
 
+def run_folder_name(override_dirname: str) -> str:
+    """``override_dirname`` without ``+``/``++``/``~`` prefixes, so a configuration's folder
+    does not depend on how its overrides were spelled (a sweep forces some with ``++``)."""
+    return re.sub(r"(^|,)[+~]+", r"\1", override_dirname)
+
+
 def register_configs() -> None:
     ConfigStore.instance().store(name="run_schema", node=RunConfig)
+    if not OmegaConf.has_resolver("tmopt_folder"):
+        OmegaConf.register_new_resolver("tmopt_folder", run_folder_name)
 
 
 # ---- validation of _target_ nodes ----------------------------------------------------
