@@ -197,6 +197,7 @@ def test_fuzzed_configuration_values_give_one_line_errors_or_valid_runs():
             assert "\n" not in str(exc) and str(exc)
             outcomes["refused"] += 1
         cases += 1
+    print(f"\nconfiguration fuzz: {cases} cases, {outcomes}")
     assert cases >= 30 and outcomes["refused"] > outcomes["valid"] > 0
 
 
@@ -232,11 +233,12 @@ def _mutations(data: bytes, rng: np.random.Generator, n: int):
             yield bytes(buf) + rng.bytes(int(rng.integers(1, 512)))
 
 
-def test_fuzzed_recording_bytes_are_refused_or_read_as_valid(tmp_path):
+def test_fuzzed_recording_bytes_are_refused_or_read_unchanged(tmp_path):
     from tmopt.mismatch.recording import Recording, RecordingError, read_recording, validate
 
     h5, csv = _valid_recording_files(tmp_path)
     sidecar = csv.with_suffix(".json")
+    written = read_recording(h5)
     rng = np.random.default_rng(7)
     tally = {"refused": 0, "valid": 0}
     deadline = time.time() + 90
@@ -251,11 +253,14 @@ def test_fuzzed_recording_bytes_are_refused_or_read_as_valid(tmp_path):
             except RecordingError as exc:
                 assert str(exc) and "\n" not in str(exc).strip()
                 tally["refused"] += 1
-            else:  # a mutation may leave a file that is still a valid recording
+            else:  # accepted only if the data are exactly the written ones (checksums)
                 assert isinstance(rec, Recording)
                 validate(rec)
+                for name, values in written.channels.items():
+                    assert np.array_equal(rec[name], values, equal_nan=True), name
                 tally["valid"] += 1
         path.write_bytes(original)
+    print(f"\nrecording fuzz: {sum(tally.values())} mutated files, {tally}")
     assert tally["refused"] >= 60
 
 

@@ -232,8 +232,17 @@ def test_hdf5_wrong_dtype_group_and_missing_attribute(tmp_path):
         read_recording(path)
 
 
+def _as_from_another_writer(path):
+    """Drop tmopt's CSV checksum, as a CSV written by another tool would not have one."""
+    side = sidecar_path(path)
+    attrs = json.loads(side.read_text())
+    attrs.pop("csv_sha256")
+    side.write_text(json.dumps(attrs))
+
+
 def test_csv_errors_name_file_channel_and_line(tmp_path):
     path = write_recording(_recording(rotation=False), tmp_path / "r.csv")
+    _as_from_another_writer(path)
     lines = path.read_text().splitlines()
     header = lines[0].split(",")
     row = lines[4].split(",")
@@ -251,6 +260,7 @@ def test_csv_errors_name_file_channel_and_line(tmp_path):
 
 def test_empty_csv_cells_are_nan_gaps(tmp_path):
     path = write_recording(_recording(rotation=False), tmp_path / "r.csv")
+    _as_from_another_writer(path)
     lines = path.read_text().splitlines()
     header = lines[0].split(",")
     row = lines[8].split(",")
@@ -258,6 +268,25 @@ def test_empty_csv_cells_are_nan_gaps(tmp_path):
     path.write_text("\n".join(lines[:8] + [",".join(row)] + lines[9:]) + "\n")
     back = read_recording(path)
     assert back.gaps[0].start == 7 and back.gaps[0].channels == ("y2",)
+
+
+def test_corrupted_data_bytes_are_refused_not_read_as_other_numbers(tmp_path):
+    rec = _recording(rotation=False)
+    csv_path = write_recording(rec, tmp_path / "r.csv")
+    text = csv_path.read_text()
+    digit = text.index("e-", len(text) // 2) - 1  # a mantissa digit of some value
+    flipped = "1" if text[digit] != "1" else "2"
+    csv_path.write_text(text[:digit] + flipped + text[digit + 1:])
+    with pytest.raises(RecordingError, match="does not match the checksum"):
+        read_recording(csv_path)
+    h5_path = write_recording(rec, tmp_path / "r.h5")
+    with h5py.File(h5_path, "r") as h5:  # where x1's bytes are in the file
+        offset = h5["x1"].id.get_chunk_info(0).byte_offset
+    data = bytearray(h5_path.read_bytes())
+    data[offset + 100] ^= 0xFF
+    h5_path.write_bytes(bytes(data))
+    with pytest.raises(RecordingError, match="x1"):
+        read_recording(h5_path)
 
 
 def test_writer_killed_midway_leaves_the_previous_file(tmp_path, monkeypatch):

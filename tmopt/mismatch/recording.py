@@ -19,6 +19,7 @@ channel or attribute.
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import json
 import math
@@ -71,6 +72,10 @@ OPTIONAL_CHANNELS: tuple[str, ...] = ("ref_x1", "ref_x2") + ROTATION_CHANNELS
 GRID_TOLERANCE = 1e-3
 #: Allowed mismatch |alpha - (phi2 - phi1)| [rad] (attributes written with ~7 digits pass).
 ANGLE_TOLERANCE = 1e-6
+
+
+#: Sidecar key holding the SHA-256 of the CSV bytes (written by tmopt, checked if present).
+CSV_CHECKSUM = "csv_sha256"
 
 
 class RecordingError(ValueError):
@@ -501,9 +506,15 @@ def _read_csv(path: Path) -> Recording:
     if not isinstance(attrs, dict):
         raise RecordingError(f"{side}: the sidecar must hold a JSON object of attributes")
     try:
-        text = path.read_text(encoding="utf-8")
+        raw = path.read_bytes()
+        text = raw.decode("utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise RecordingError(f"{path}: unreadable CSV file: {exc}") from exc
+    expected = attrs.pop(CSV_CHECKSUM, None)
+    if expected is not None and hashlib.sha256(raw).hexdigest() != expected:
+        raise RecordingError(f"{path}: the CSV does not match the checksum in {side.name} "
+                             f"(corrupted or edited after writing; remove {CSV_CHECKSUM!r} "
+                             "from the sidecar to accept an intentional edit)")
     names, data = _parse_csv(text, path)
     return Recording({c: data[:, j].copy() for j, c in enumerate(names)}, attrs,
                      source=str(path))  # fmt: skip
@@ -566,9 +577,11 @@ def write_recording(
     if kind == "h5":
         atomic_write(path, lambda tmp: _write_h5(checked, tmp))
     else:
-        attrs = json.dumps(_json_attrs(checked.attrs), indent=2, sort_keys=True)
+        body = _csv_bytes(checked)
+        meta = {**_json_attrs(checked.attrs), CSV_CHECKSUM: hashlib.sha256(body).hexdigest()}
+        attrs = json.dumps(meta, indent=2, sort_keys=True)
         atomic_write(sidecar_path(path), lambda tmp: Path(tmp).write_text(attrs, encoding="utf-8"))
-        atomic_write(path, lambda tmp: _write_csv(checked, tmp))
+        atomic_write(path, lambda tmp: Path(tmp).write_bytes(body))
     return path
 
 
@@ -604,14 +617,18 @@ def _write_h5(rec: Recording, tmp: str) -> None:
         for key, value in rec.attrs.items():
             h5.attrs[key] = value
         for name in _ordered(rec):
-            h5.create_dataset(name, data=rec.channels[name], dtype="<f8")
+            # Fletcher-32 checksums: a corrupted data byte is refused on read, not read as a
+            # silently different number (files from other writers may lack them).
+            h5.create_dataset(name, data=rec.channels[name], dtype="<f8", fletcher32=True)
 
 
-def _write_csv(rec: Recording, tmp: str) -> None:
+def _csv_bytes(rec: Recording) -> bytes:
     names = _ordered(rec)
     data = np.column_stack([rec.channels[c] for c in names])
+    buf = io.StringIO()
     # %.17g round-trips every float64 exactly; NaN is written as 'nan'
-    np.savetxt(tmp, data, fmt="%.17g", delimiter=",", header=",".join(names), comments="")
+    np.savetxt(buf, data, fmt="%.17g", delimiter=",", header=",".join(names), comments="")
+    return buf.getvalue().encode("utf-8")
 
 
 def _json_attrs(attrs: dict[str, Any]) -> dict[str, Any]:
