@@ -85,7 +85,12 @@ def run_case(case: dict) -> dict:
     except Exception as exc:  # a diverged loop is reported, not hidden
         return {**_ids(case), "error": f"generation: {exc}"}
     rep = build_report(diagnose(data_from_recording(rec)))
-    return {**_ids(case), **score(rep, truth), "cpu_s": time.process_time() - t0}
+    row = {**_ids(case), **score(rep, truth), "cpu_s": time.process_time() - t0}
+    if case.get("keep"):
+        name = f"{case['set']}_{case['seed']}"
+        Path(case["keep"], f"{name}.report.json").write_text(json.dumps(rep, default=float))
+        Path(case["keep"], f"{name}.truth.json").write_text(json.dumps(truth, default=str))
+    return row
 
 
 def _ids(case: dict) -> dict:
@@ -95,14 +100,19 @@ def _ids(case: dict) -> dict:
 
 
 def _param_error(found: dict, truth: dict) -> float | None:
-    """Relative error of the effect's main parameter (truth's ``parameter``), if reported."""
-    name = truth.get("parameter")
-    if name not in found["parameters"]:
-        return None
-    est, val = found["parameters"][name], truth["magnitude"]
-    if not isinstance(est, (int, float)) or not val:
-        return None
-    return abs(abs(est) - abs(val)) / abs(val)  # sign conventions may differ (lever arm)
+    """Relative error of the effect's main parameter, matched by name between the truth's
+    parameters and the report's (the lever arm |r12| for rotation); None if not comparable.
+    Magnitudes are compared: sign conventions may differ between generator and tool."""
+    par = found["parameters"]
+    pairs = [(truth.get("parameter"), truth.get("magnitude"))]
+    pairs += [(k, v) for k, v in truth.get("parameters", {}).items() if not k.endswith("_s")]
+    if "r12_s" in truth.get("parameters", {}) and "r12_x" in par:
+        pairs.insert(0, ("r12_x", truth["parameters"]["r12_s"][0]))
+    for name, val in pairs:
+        est = par.get(name)
+        if isinstance(est, (int, float)) and isinstance(val, (int, float)) and val:
+            return abs(abs(est) - abs(val)) / abs(val)
+    return None
 
 
 def score(rep: dict, truth: dict) -> dict:
@@ -200,6 +210,9 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     todo = cases(args.quick)
+    (out / "reports").mkdir(exist_ok=True)
+    for c in todo:  # reports and truths kept for re-scoring and inspection
+        c["keep"] = str(out / "reports")
     rows = []
     with mp.get_context("spawn").Pool(args.jobs) as pool:
         for i, row in enumerate(pool.imap(run_case, todo), start=1):
