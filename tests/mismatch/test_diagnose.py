@@ -71,9 +71,10 @@ def test_unexplained_mismatch_is_located(clean):
     e = np.where((t > 200) & (t < 260), 2e-11 * np.sign(np.sin(2 * math.pi * 0.8 * t)), 0.0)
     add_force(d, 3, e)
     dg = diagnose(d, Settings(max_effects=2))
-    assert dg.mismatch_detected
-    loc = dg.locations
+    assert dg.mismatch_detected and dg.unexplained
+    loc = dg.locations_after  # what the final model leaves: the burst and its 0.8 Hz line
     assert any(t0 <= 260 and t1 >= 200 for t0, t1 in loc.time_s)
+    assert any(lo <= 0.8 <= hi for lo, hi in loc.frequency_hz)
 
 
 def test_a_candidate_inside_the_nominal_span_is_called_aliased(clean):
