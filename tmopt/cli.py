@@ -191,7 +191,7 @@ def summary_table(metrics: dict, outdir: Path | None = None) -> str:
     for name, v in (chosen.get("F") or {}).items():
         rows.append(f"| {label} {name} | {_fmt(v)} |")
     for key, v in (metrics.get("identification") or {}).items():
-        if isinstance(v, float):
+        if isinstance(v, float) and key not in prob["objectives"]:  # those are shown above
             rows.append(f"| chosen: {key} | {_fmt(v)} |")
     for key in ("igd", "igd_plus", "hv"):
         if metrics.get(key) is not None:
