@@ -86,3 +86,19 @@ def test_a_candidate_inside_the_nominal_span_is_called_aliased(clean):
     cand = Candidate("actuation_gain", "x1", "equation", ["g"], ["1"], [twin], 0.05)
     rec = _identifiable(cand, cols, x0, st.eq_noise.whiten, 30.0)
     assert rec["reason"] == "aliased" and rec["aliased_with"] == "k1xx"
+
+
+def test_holm_and_ljung_box_match_their_definitions():
+    from tmopt.mismatch.diagnose import holm, ljung_box
+
+    # Holm: sorted p * (m - i), running maximum, capped at 1
+    np.testing.assert_allclose(holm([0.01, 0.04, 0.03]), [0.03, 0.06, 0.06])
+    assert holm([0.5, 0.9]).tolist() == [1.0, 1.0]
+    x = np.random.default_rng(5).standard_normal(400)
+    n, lags = x.size, 10
+    xc = x - x.mean()
+    r = np.array([xc[k:] @ xc[: n - k] for k in range(1, lags + 1)]) / (xc @ xc)
+    q = n * (n + 2) * np.sum(r**2 / (n - np.arange(1, lags + 1)))
+    from scipy import stats
+
+    assert abs(ljung_box(x, lags) - stats.chi2.sf(q, lags)) < 1e-12
