@@ -1,22 +1,25 @@
-"""Explain a mismatch: evidence for each catalogue effect, greedy selection, identifiability.
+"""Explain a mismatch: evidence for each catalogue effect, stepwise selection, identifiability.
 
 Procedure (Karnesis et al., PRD 89, 062001 (2014) for model selection in LPF system
 identification; here with the frequentist twin of their Bayes factors):
 
-1. fit the nominal model (Eqs. 9-15 on both f_B-free combinations; kinematic nuisance);
+1. fit the nominal model (Eqs. 9-15 on both f_B-free combinations; kinematic check);
 2. for every catalogue candidate, the generalised likelihood ratio ``L = n log(RSS0/RSS1)``
    of adding its regressors, on data whitened by the current noise model (GLS), with
-   ``L ~ chi^2_dof`` under "no such effect" (Wilks); searched parameters multiply the
-   p-value by their trials factor (Bonferroni); colored noise is an AR likelihood ratio;
+   ``L ~ chi^2_dof`` under "no such effect" (Wilks); the Wald statistic of the IV fit in the
+   kinematic group; one LR over both groups for accelerometer errors; searched parameters
+   multiply the p-value by their trials factor (Bonferroni) and count in the BIC penalty;
+   coloured noise is a Whittle likelihood ratio (white + power-law red vs white);
 3. Holm-correct the p-values over the whole catalogue; among the significant candidates
-   (``p_holm < FAMILY_ALPHA``, calibrated) add the one with the largest ``dBIC = L - dof
-   ln n`` to the model, refit (noise re-estimated), repeat -- so two effects are found in
-   turn; stop when nothing is significant;
+   (``p_holm < FAMILY_ALPHA``, calibrated) add the one with the largest ``dBIC = L - k
+   ln n`` to the model (coloured noise only if deterministic effects cannot make the
+   noise white), refit (noise re-estimated), repeat; then backward elimination of effects
+   no longer significant given the others (stepwise selection);
 4. what remains located by :mod:`tmopt.mismatch.locate` is "unexplained";
-5. identifiability: a candidate whose minimum detectable parameter (Holm/Bonferroni
-   threshold x standard error *with* the nominal parameters free) exceeds its plausible
-   magnitude cannot be seen with this excitation -- "aliased" when >= ALIASED_R2 of its
-   regressor lies in the nominal span (it would bias a nominal parameter instead).
+5. identifiability: a candidate whose minimum detectable parameter (Bonferroni threshold
+   x standard error *with* the nominal parameters free) exceeds its plausible magnitude
+   cannot be seen with this excitation -- "aliased" when >= ALIASED_R2 of its regressor
+   lies in the nominal span (it would bias a nominal parameter instead).
 """
 
 from __future__ import annotations
