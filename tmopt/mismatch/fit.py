@@ -17,8 +17,8 @@ residual be traced to an axis through its 2-D direction.
 The **kinematic** group checks the readouts against the accelerometer (not used by
 Eqs. 9-16): for a zero-order-hold force, ``x_{n+1} - 2x_n + x_{n-1} = h^2 (a_n + a_{n-1})/2``
 exactly (integrate ``r'' = a_n`` over two steps; the within-step change of ``k r`` is
-~1e-16 m).  A 3-tap nuisance filter absorbs the sampling convention of ``acc`` (any
-convention keeps the DC gain 1, so a readout *scale* error still shows).
+~1e-16 m).  Its candidates are estimated with instrumental variables (the excitation
+tones), because the loop feeds the readout noise back into the measured acceleration.
 """
 
 from __future__ import annotations
