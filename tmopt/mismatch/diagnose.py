@@ -337,6 +337,12 @@ def identifiability(data: Data, basis: np.ndarray, state: State, settings: Setti
     kin_group = _IVGroup(kinematic_target(data), *nominal["kinematic"])
     out = []
     for effect in CATALOGUE:
+        why = effect.untestable(ctx)
+        if why is not None:  # say so rather than let the effect vanish from the report
+            out.append({"name": effect.name, "channel": "all", "reason": f"untestable: {why}",
+                        "aliased_with": None, "min_detectable": None, "plausible": None,
+                        "needs": effect.needs})
+            continue
         if effect.profiled:
             continue
         for cand in effect.candidates(ctx):

@@ -111,6 +111,10 @@ class Effect:
     def candidates(self, ctx: Context) -> list[Candidate]:
         raise NotImplementedError
 
+    def untestable(self, ctx: Context) -> str | None:
+        """Why this recording cannot test the effect at all (e.g. missing channels)."""
+        return None
+
 
 def _eq_candidate(effect: Effect, channel: str, param: str, unit: str, series: np.ndarray,
                   ctx: Context, axis: int, plausible: float) -> Candidate:  # fmt: skip
@@ -293,6 +297,11 @@ class RotationCoupling(Effect):
                    "witnesses) produces Euler and centrifugal accelerations at the test "
                    "masses, which sit off the centre of mass (lever arm r12)")  # fmt: skip
     needs = "spacecraft attitude motion and the six sc_omega* witness channels"
+
+    def untestable(self, ctx: Context) -> str | None:
+        if ctx.data.omega is None:
+            return "the recording has no sc_omega_* / sc_omega_dot_* witness channels"
+        return None
 
     def candidates(self, ctx: Context) -> list[Candidate]:
         if ctx.data.omega is None:
