@@ -167,3 +167,23 @@ def test_command_line_errors_are_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.startswith("tmopt.collect: error:") and "\n" not in err
     assert main([str(tmp_path)]) == 2  # exists but holds no run
+
+
+def test_several_sweeps_collected_as_one_compare_with_the_reference_at_another_budget(
+        tmp_path):
+    # Sweep 1: both algorithms at the small budget; sweep 2: NSGA-II alone at a large one.
+    small, large = tmp_path / "small", tmp_path / "large"
+    for seed in range(5):
+        _run(small, f"ipc{seed}", {"algorithm": "mgsaea_ipc", "experiment": "results",
+                                   "seed": seed}, algorithm="mgsaea_ipc", seed=seed, m=6.0 + seed)
+        _run(large, f"ea{seed}", {"algorithm": "nsga2", "experiment": "paper", "seed": seed},
+             seed=seed, m=4.0 + 0.1 * seed)
+    out = tmp_path / "out"
+    collect([small, large], out, fig10=False)
+    table = (out / "table3.md").read_text()
+    # 5 vs 5 separated, NSGA-II lower: p = 2/252, flagged as another setting's reference
+    assert "| NSGA-II | paper | 5/5 | 5/5 |" in table and "| 0.008† + |" in table
+    runs = (out / "runs.csv").read_text()
+    assert "small/ipc0" in runs and "large/ea4" in runs
+    with pytest.raises(FileNotFoundError, match="--out"):
+        collect([small, large])

@@ -1,7 +1,8 @@
-"""Collect a sweep: ``python -m tmopt.collect SWEEP_DIR [--out DIR] [--reference-algorithm A]``.
+"""Collect a sweep: ``python -m tmopt.collect SWEEP_DIR... [--out DIR] [--reference-algorithm A]``.
 
-Reads every run folder under SWEEP_DIR (any launcher; several sweeps may share it) and
-writes into ``--out`` (default ``SWEEP_DIR/collected``):
+Reads every run folder under SWEEP_DIR (any launcher; several sweeps may share it, and
+several folders may be given) and writes into ``--out`` (default
+``SWEEP_DIR/collected``):
 
 - ``summary.md``: what was found and written, with the runs' total and elapsed time;
 - ``runs.csv``: one line per run (status, settings, seed, every number);
@@ -57,19 +58,27 @@ TABLE3_SETTING = {"scheme": "B", "problem.n_freq": "3"}
 TEST_NOTE = ("p: two-sided Wilcoxon rank-sum test (scipy.stats.mannwhitneyu, exact for "
              "small samples without ties) over seeds against the reference's runs in the same "
              "setting; + / - / = : significantly better / worse / no significant difference "
-             "at 0.05 (by the medians). †: the reference's runs at another budget (it has "
-             "none at this one). n/a: fewer than 2 complete runs on a side, or no "
+             "at 0.05 (by the medians). †: the reference's runs at another budget or preset (it "
+             "has none at this one). n/a: fewer than 2 complete runs on a side, or no "
              "reference runs to compare with.")
 
 
-def collect(sweep_dir: Path, out: Path | None = None, reference: str = DEFAULT_REFERENCE,
-            fig10_run: Path | None = None, fig10: bool = True) -> list[Path]:
-    """Write every table and figure of the sweep in ``sweep_dir``; return the files written."""
-    out = Path(out) if out is not None else Path(sweep_dir) / "collected"
-    out.mkdir(parents=True, exist_ok=True)
-    runs, duplicates = deduplicate(discover_runs(sweep_dir))
+def collect(sweep_dir: Path | list[Path], out: Path | None = None,
+            reference: str = DEFAULT_REFERENCE, fig10_run: Path | None = None,
+            fig10: bool = True) -> list[Path]:
+    """Write every table and figure of the sweep(s) in ``sweep_dir``; return the files written.
+
+    Several sweep folders (a list) are collected as one: e.g. the same algorithms at two
+    budgets from two sweeps, so that they share one table and one reference.
+    """
+    dirs = [Path(d) for d in (sweep_dir if isinstance(sweep_dir, list) else [sweep_dir])]
+    if out is None and len(dirs) > 1:
+        raise FileNotFoundError("several sweep folders need --out")
+    out = Path(out) if out is not None else dirs[0] / "collected"
+    runs, duplicates = deduplicate(_discover(dirs))
     if not runs:
-        raise FileNotFoundError(f"no run folders under {sweep_dir}")
+        raise FileNotFoundError(f"no run folders under {', '.join(map(str, dirs))}")
+    out.mkdir(parents=True, exist_ok=True)
     notes = [_write_runs(runs, out), _write_status(runs, duplicates, out)]
     stiffness = [r for r in runs if r.is_stiffness]
     suites = [r for r in runs if not r.is_stiffness]
@@ -78,8 +87,21 @@ def collect(sweep_dir: Path, out: Path | None = None, reference: str = DEFAULT_R
                                   fig10)
     if suites:
         notes.append(_write_benchmarks(suites, out, reference))
-    atomic_write_text(out / "summary.md", _summary(sweep_dir, runs, duplicates, notes))
+    label = ", ".join(map(str, dirs))
+    atomic_write_text(out / "summary.md", _summary(label, runs, duplicates, notes))
     return sorted(p for p in out.iterdir() if p.is_file())
+
+
+def _discover(dirs: list[Path]) -> list[RunRecord]:
+    """Runs of every folder; names carry the folder's name when there are several."""
+    runs = []
+    for d in dirs:
+        found = discover_runs(d)
+        if len(dirs) > 1:
+            for run in found:
+                run.name = f"{d.name}/{run.name}"
+        runs += found
+    return runs
 
 
 # ---- every run ------------------------------------------------------------------------
@@ -269,7 +291,7 @@ def _md(header, body) -> str:
     return to_markdown(header, body)
 
 
-def _summary(sweep_dir: Path, runs: list[RunRecord], duplicates: list[RunRecord],
+def _summary(sweep_dir: str, runs: list[RunRecord], duplicates: list[RunRecord],
              notes: list[str]) -> str:
     done = [r for r in runs if r.status == COMPLETE]
     total = sum((r.metrics or {}).get("wall_time_s", 0.0) for r in done)
@@ -293,8 +315,10 @@ def _elapsed(runs: list[RunRecord]) -> float:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m tmopt.collect", description=__doc__.split(
         "\n")[0])
-    ap.add_argument("sweep_dir", type=Path, help="sweep folder (e.g. multirun/quick)")
-    ap.add_argument("--out", type=Path, default=None, help="default: SWEEP_DIR/collected")
+    ap.add_argument("sweep_dir", type=Path, nargs="+",
+                    help="sweep folder (e.g. multirun/quick); several are collected as one")
+    ap.add_argument("--out", type=Path, default=None,
+                    help="default: SWEEP_DIR/collected (required for several folders)")
     ap.add_argument("--reference-algorithm", default=DEFAULT_REFERENCE,
                     help="algorithm the others are tested against (default: mgsaea_ipc)")
     ap.add_argument("--fig10-run", type=Path, default=None,

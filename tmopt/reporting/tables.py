@@ -21,8 +21,9 @@ from tmopt.reporting.runs import COMPLETE, RunRecord
 from tmopt.reporting.stats import fmt_mean_std, fmt_number, fmt_p, mark, mean_std, rank_sum
 
 Setting = tuple[tuple[str, str], ...]
-#: Keys in which a reference setting may differ when none matches exactly (flagged: †).
-RELAXED_KEYS = ("budget",)
+#: Keys in which a reference setting may differ when none matches exactly (flagged: †):
+#: the run's size (an EA at the paper's 10 000 evaluations against the reference at 697).
+RELAXED_KEYS = ("budget", "experiment")
 
 
 @dataclass(frozen=True)
@@ -122,8 +123,9 @@ def _reference_setting(setting: Setting, reference: str | None,
                        groups: dict[Setting, list[RunRecord]]) -> Setting | None:
     """The reference's setting with the same values; failing that, at another budget.
 
-    The second case (e.g. an EA at 10 000 evaluations against the reference at 300) is
-    taken only when the reference has exactly one such setting; the row is then flagged.
+    The second case (e.g. an EA at 10 000 evaluations against the reference at 300, or
+    from another preset) is taken only when the reference has exactly one such setting;
+    the row is then flagged.
     """
     if not reference:
         return None
