@@ -213,11 +213,12 @@ def paper_comparison(rows: list[dict]) -> tuple[list[str], list[list[str]]]:
     """Our Table 3 means beside the paper's single values, one line per source."""
     header = ["algorithm", "source", *(h for _, h in TABLE3_COLUMNS)]
     body = []
-    for row in rows:
+    for i, row in enumerate(rows):
         algo = row["setting"].get("algorithm", "")
         ours = [fmt_number(row[k][0], _sci(k)) for k, _ in TABLE3_COLUMNS]
         body.append([label(row["setting"]), f"ours (mean of {row['n_complete']})", *ours])
-        if algo in PAPER_TABLE3:
+        last_of_algo = i + 1 == len(rows) or rows[i + 1]["setting"].get("algorithm") != algo
+        if algo in PAPER_TABLE3 and last_of_algo:
             paper = [fmt_number(v, _sci(k)) for (k, _), v in zip(TABLE3_COLUMNS,
                                                                  PAPER_TABLE3[algo])]
             body.append([display_name(algo), "paper", *paper])
