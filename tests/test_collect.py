@@ -187,3 +187,25 @@ def test_several_sweeps_collected_as_one_compare_with_the_reference_at_another_b
     assert "small/ipc0" in runs and "large/ea4" in runs
     with pytest.raises(FileNotFoundError, match="--out"):
         collect([small, large])
+
+
+def test_an_algorithms_own_parameters_do_not_hide_its_reference(tmp_path):
+    # C-MOEA/D run with algorithm.batch_size=1 in the same sweep as MGSAEA-IPC (which has
+    # no batch_size): same problem and budget, so MGSAEA-IPC is its reference, unflagged.
+    for seed in range(3):
+        _run(tmp_path, f"c{seed}", {"algorithm": "cmoead", "algorithm.batch_size": 1,
+                                    "seed": seed}, algorithm="cmoead", seed=seed, m=9.0)
+        _run(tmp_path, f"i{seed}", {"algorithm": "mgsaea_ipc", "seed": seed},
+             algorithm="mgsaea_ipc", seed=seed, m=3.0 + seed)
+    from tmopt.reporting.runs import group_runs
+    runs = discover_runs(tmp_path)
+    keys = setting_keys(runs)
+    assert "algorithm.batch_size" in keys
+    assert {r.value("algorithm.batch_size") for r in runs} == {"", "1"}  # absent != null
+    rows = summarise(group_runs(runs, keys), STIFFNESS_METRICS, "mgsaea_ipc")
+    cmoead = next(r for r in rows if r["setting"]["algorithm"] == "cmoead")
+    assert cmoead["reference"]["algorithm"] == "mgsaea_ipc"
+    assert cmoead["p_M_TM1"] == rank_sum([9.0] * 3, [3.0, 4.0, 5.0])
+    from tmopt.reporting.tables import markdown_rows
+    _, body = markdown_rows(rows, STIFFNESS_METRICS, keys, "mgsaea_ipc")
+    assert not any("†" in cell for row in body for cell in row)  # same budget: no flag

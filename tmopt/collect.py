@@ -58,9 +58,10 @@ TABLE3_SETTING = {"scheme": "B", "problem.n_freq": "3"}
 TEST_NOTE = ("p: two-sided Wilcoxon rank-sum test (scipy.stats.mannwhitneyu, exact for "
              "small samples without ties) over seeds against the reference's runs in the same "
              "setting; + / - / = : significantly better / worse / no significant difference "
-             "at 0.05 (by the medians). †: the reference's runs at another budget or preset (it "
-             "has none at this one). n/a: fewer than 2 complete runs on a side, or no "
-             "reference runs to compare with.")
+             "at 0.05 (by the medians). The reference's runs are those with the same settings "
+             "apart from the algorithm's own parameters (algorithm.*); †: at another budget "
+             "or preset (it has none at this one). n/a: fewer than 2 complete runs on a "
+             "side, or no reference runs to compare with.")
 
 
 def collect(sweep_dir: Path | list[Path], out: Path | None = None,

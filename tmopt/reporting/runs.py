@@ -73,7 +73,11 @@ class RunRecord:
         return None if budget is None else int(budget)
 
     def value(self, key: str) -> str:
-        """Effective value of a setting key (group choice or dotted config key) as text."""
+        """Effective value of a setting key (group choice or dotted config key) as text.
+
+        A key the run's configuration does not have (e.g. ``algorithm.batch_size`` of an
+        algorithm without that parameter) is ``""``, unlike a key set to null (``None``).
+        """
         if key in GROUP_KEYS:
             choice = self.choices.get(key) or self.overrides.get(key)
             if choice is None and key == "algorithm" and self.metrics:
@@ -82,7 +86,7 @@ class RunRecord:
         node: object = self.config
         for part in key.split("."):
             if not isinstance(node, dict) or part not in node:
-                return str(self.overrides.get(key))
+                return str(self.overrides.get(key, ""))
             node = node[part]
         return _text(node)
 

@@ -132,12 +132,17 @@ def _reference_setting(setting: Setting, reference: str | None,
     target = tuple((k, reference if k == "algorithm" else v) for k, v in setting)
     if target in groups:
         return target
-    loose = [s for s in groups if _same_but(s, target, RELAXED_KEYS)]
-    return loose[0] if len(loose) == 1 else None
+    for relaxed in ((), RELAXED_KEYS):  # algorithm parameters (algorithm.*) never match
+        loose = [s for s in groups if _same_but(s, target, relaxed)]
+        if len(loose) == 1:
+            return loose[0]
+    return None
 
 
 def _same_but(a: Setting, b: Setting, keys: tuple[str, ...]) -> bool:
-    return len(a) == len(b) and all(x == y or x[0] in keys for x, y in zip(a, b))
+    """Equal settings except in ``keys`` and in parameters of the algorithm itself."""
+    return len(a) == len(b) and all(
+        x == y or x[0] in keys or x[0].startswith("algorithm.") for x, y in zip(a, b))
 
 
 # ---- formatting -------------------------------------------------------------------------
@@ -176,9 +181,10 @@ def markdown_rows(rows: list[dict], metrics: Sequence[Metric], keys: Sequence[st
 
 
 def _relaxed(row: dict) -> bool:
+    """Whether the reference differs in more than the algorithm and its own parameters."""
     ref = row.get("reference")
     return bool(ref) and any(ref.get(k) != v for k, v in row["setting"].items()
-                             if k != "algorithm")
+                             if k != "algorithm" and not k.startswith("algorithm."))
 
 
 def _setting_cell(setting: dict, key: str) -> str:
