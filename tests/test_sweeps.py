@@ -22,6 +22,7 @@ import pytest
 
 from tmopt.cli import available, preflight
 from tmopt.collect import collect
+from tmopt.reporting.runs import discover_runs
 
 REPO = Path(__file__).resolve().parents[1]
 TINY = ["experiment=quick", "budget=40", "algorithm.pop_size=20", "progress=false",
@@ -115,3 +116,17 @@ def test_both_sweeps_through_basic_and_joblib_then_collect_lists_failed_and_inco
     assert "resuming from 40" in (unfinished / "tmopt.log").read_text()
     done = sweep / _folder("algorithm=nsga3", "problem=stiffness", "seed=0")
     assert "already complete" in (done / "tmopt.log").read_text()
+
+
+@pytest.mark.slow
+def test_submitit_local_launcher_writes_the_same_run_folders(tmp_path):
+    # Each job is a separate process started by submitit (~30 s each here): slow.
+    sweep = tmp_path / "sweep"
+    _sweep(["algorithm=nsga2", "seed=0,1"], sweep, "submitit_local",
+           "hydra.launcher.timeout_min=10")
+    for seed in (0, 1):
+        run = sweep / _folder("algorithm=nsga2", f"seed={seed}")
+        assert json.loads((run / "metrics.json").read_text())["status"] == "complete"
+    assert (sweep / ".submitit").is_dir()  # submitit's own logs, which collect skips
+    assert {r.name for r in discover_runs(sweep)} == {
+        _folder("algorithm=nsga2", "seed=0"), _folder("algorithm=nsga2", "seed=1")}
