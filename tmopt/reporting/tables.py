@@ -96,23 +96,25 @@ def summarise(groups: dict[Setting, list[RunRecord]], metrics: Sequence[Metric],
               for s, runs in groups.items()}
     rows = []
     for setting, runs in groups.items():
-        row: dict = {"setting": dict(setting), "n_complete": len(_complete(runs)),
-                     "n_runs": len(runs)}
         ref = _reference_setting(setting, reference, groups)
+        row: dict = {"setting": dict(setting), "n_complete": len(_complete(runs)),
+                     "n_runs": len(runs), "reference": dict(ref) if ref else None,
+                     "values": values[setting]}
         for m in metrics:
-            mean, std, n = mean_std(values[setting][m.key])
-            row[m.key] = (mean, std, n)
-            row["reference"] = dict(ref) if ref else None
+            row[m.key] = mean_std(values[setting][m.key])
             if m.tested:
-                p = rank_sum(values[setting][m.key], values[ref][m.key]) if ref else math.nan
-                same = ref == setting
-                row[f"p_{m.key}"] = math.nan if same else p
-                row[f"mark_{m.key}"] = "" if same else mark(
-                    values[setting][m.key], values[ref][m.key] if ref else [], p,
-                    m.lower_is_better)
-        row["values"] = values[setting]
+                ours = values[setting][m.key]
+                theirs = values[ref][m.key] if ref and ref != setting else None
+                _add_test(row, m, ours, theirs)
         rows.append(row)
     return rows
+
+
+def _add_test(row: dict, m: Metric, ours: list, theirs: list | None) -> None:
+    """``p_<key>`` and ``mark_<key>`` of ``ours`` against the reference's values (None: none)."""
+    p = math.nan if theirs is None else rank_sum(ours, theirs)
+    row[f"p_{m.key}"] = p
+    row[f"mark_{m.key}"] = "" if theirs is None else mark(ours, theirs, p, m.lower_is_better)
 
 
 def _complete(runs: list[RunRecord]) -> list[RunRecord]:
