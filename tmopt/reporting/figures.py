@@ -45,7 +45,7 @@ def _errorbar(ax, rows: list[dict], key: str, **kw) -> None:
     k = [int(r["setting"]["problem.n_freq"]) for r in rows]
     mean = [r[key][0] for r in rows]
     std = [0.0 if not math.isfinite(r[key][1]) else r[key][1] for r in rows]
-    ax.errorbar(k, mean, yerr=std, capsize=3, marker="o", **kw)
+    ax.errorbar(k, mean, yerr=std, capsize=3, **{"marker": "o", **kw})
     bad = [(ki, m) for ki, m, r in zip(k, mean, rows) if r["chosen_feasible"][0] < 1]
     if bad:
         ax.plot(*zip(*bad), "kx", ms=9, label="_infeasible")
@@ -63,7 +63,7 @@ def fig8(rows: list[dict], path: Path) -> None:
         for i, (name, series) in enumerate(series_of_scheme.items()):
             _errorbar(ax, series, "convergence_time_TM1", color=f"C{i}", label=f"{name}: time")
             _errorbar(ax2, series, "convergence_accuracy_TM1", color=f"C{i}", ls="--",
-                      label=f"{name}: accuracy")
+                      marker="s", mfc="white", label=f"{name}: accuracy")
         ax.set_title(f"({'abc'[SCHEMES.index(scheme)]}) Scheme {scheme}")
         ax.set_xlabel("number of frequencies k")
         ax.xaxis.get_major_locator().set_params(integer=True)
