@@ -38,6 +38,7 @@ from tmopt.mismatch.fit import (
     Column,
     Data,
     FitResult,
+    align_force_timing,
     equation_target,
     kinematic_target,
     nominal_equation_columns,
@@ -527,6 +528,7 @@ def _deterministic_instead(data, basis, state: State, evals: list[Evaluation],
 def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
     """Fit, locate, explain (stepwise, calibrated), re-identify; see the module docstring."""
     settings = Settings() if settings is None else settings
+    data = align_force_timing(data)
     basis = null_basis(data.geometry)
     state = before = fit_state(data, basis, [], [], False, settings)
     selected, steps = [], []
