@@ -87,6 +87,8 @@ def run_optimisation(
                  resumed_from, outdir)
 
     algorithm.setup(problem, budget=budget, seed=seed)
+    if resumed_from:
+        algorithm.attach_replay(evaluator.replayed_designs)
     reporter = ProgressReporter(budget, problem.objective_names, enabled=progress)
     t0 = time.perf_counter()
     try:

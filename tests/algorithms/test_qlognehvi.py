@@ -210,3 +210,26 @@ def test_cli_run(tmp_path):
     assert out.returncode == 0, out.stderr
     metrics = json.loads((tmp_path / "metrics.json").read_text())
     assert metrics["algorithm"] == "qlognehvi" and metrics["n_evals"] == 12
+
+
+def test_a_resume_takes_archived_designs_without_reoptimising_and_ends_identical(
+        tmp_path, monkeypatch):
+    import tmopt.algorithms.qlognehvi as module
+
+    problem = PymooBenchmark("mw3", n_var=4)
+
+    def go(outdir, budget):
+        return run_optimisation(problem, QLogNEHVI(n_init=8, **FAST), budget=budget, seed=2,
+                                outdir=outdir, config_hash="h", resume=True, progress=False,
+                                plots=False)
+
+    whole = go(tmp_path / "whole", 18)  # 8 + 5 iterations of 2
+    go(tmp_path / "killed", 14)  # the same run stopped after 3 iterations ...
+    (tmp_path / "killed" / "metrics.json").unlink()  # ... as if killed before its end
+    calls = []
+    real = module.optimize_acqf
+    monkeypatch.setattr(module, "optimize_acqf", lambda *a, **k: calls.append(1) or real(*a, **k))
+    resumed = go(tmp_path / "killed", 18)
+    assert resumed.resumed_from == 14 and len(calls) == 2  # only the 2 new iterations
+    for field in ("X", "F", "G"):
+        assert np.array_equal(getattr(resumed.archive, field), getattr(whole.archive, field))

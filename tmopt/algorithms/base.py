@@ -59,7 +59,21 @@ class Algorithm(ABC):
         self.check_budget(problem, budget)
         self.n_gen = 0
         self.n_evals = 0
+        self._replay_source = None
         self._setup()
+
+    def attach_replay(self, source) -> None:
+        """Let :meth:`replayed` read a resumed run's archive (``source(n)`` -> designs)."""
+        self._replay_source = source
+
+    def replayed(self, n: int) -> np.ndarray | None:
+        """The next ``n`` designs of the archive being replayed on resume, else None.
+
+        Only for proposals that are expensive to recompute and leave no trace in the
+        state but the designs themselves (qLogNEHVI's acquisition optimisation): the
+        resumed run then equals the uninterrupted one without redoing that work.
+        """
+        return None if self._replay_source is None else self._replay_source(n)
 
     def ask(self) -> np.ndarray:
         """Designs (n, n_var) to evaluate for real next."""

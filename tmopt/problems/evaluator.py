@@ -101,6 +101,17 @@ class Evaluator:
     def n_replayed_left(self) -> int:
         return 0 if self._replay is None else max(len(self._replay) - self.n_evals, 0)
 
+    def replayed_designs(self, n: int) -> np.ndarray | None:
+        """The next ``n`` archived designs while a resume replays, else None.
+
+        An algorithm whose proposal is costly and whose state does not depend on how a
+        proposal was computed (only on the seeded draws and the evaluated designs) may
+        propose these instead of recomputing them (:meth:`Algorithm.replayed`).
+        """
+        if n < 1 or self.n_replayed_left < n:
+            return None
+        return self._replay.rows(self.n_evals, self.n_evals + n).X.copy()
+
     # ---- evaluation --------------------------------------------------------------------
     def evaluate(self, X: np.ndarray) -> EvaluatedBatch:
         """Evaluate designs for real (or from the replay archive) and archive them."""
