@@ -150,3 +150,15 @@ def test_replay_mid_batch_and_oversized_archives_are_errors(tmp_path):
         ev.evaluate(_designs([0.95, 0.4, 0.5]))
     with pytest.raises(ArchiveError, match="more than budget=3"):
         Evaluator(Toy(), 3, replay=read_archive(path))
+
+
+def test_a_resume_killed_while_replaying_leaves_the_whole_archive_on_disk(tmp_path):
+    path = tmp_path / "archive.h5"
+    _interrupted_run(path)  # 4 evaluations on disk
+    ev = Evaluator(Toy(), 10, EvaluationArchive(path, 3, 2, 1), replay=read_archive(path))
+    ev.evaluate(_designs([0.2, 0.3]))  # replayed; a kill here must not shrink the file
+    assert len(read_archive(path)) == 4
+    ev.evaluate(_designs([0.95, 0.4]))
+    ev.evaluate(_designs([0.6]))  # the first real batch writes replayed + new rows
+    data = read_archive(path)
+    assert len(data) == 5 and np.array_equal(data.X[4:], _designs([0.6]))

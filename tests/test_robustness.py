@@ -102,6 +102,31 @@ def test_sigkill_mid_run_then_rerun_resumes_to_the_uninterrupted_result(tmp_path
     assert json.loads((killed / "metrics.json").read_text())["resumed_from"] == archived
 
 
+def test_a_resume_that_crashes_while_replaying_keeps_the_whole_archive(tmp_path):
+    """The archive on disk never shrinks: a second crash during the replay loses nothing."""
+    from tmopt.problems.suites import PymooBenchmark
+
+    class CrashesAtGeneration3(NSGA2):
+        def ask(self):
+            if self.n_gen == 3:
+                raise KeyboardInterrupt  # stands for SIGKILL, deterministically mid-replay
+            return super().ask()
+
+    def go(algorithm):
+        return run_optimisation(PymooBenchmark("mw1", n_var=4), algorithm, budget=80, seed=3,
+                                outdir=tmp_path, config_hash="h", resume=True, progress=False,
+                                plots=False)
+
+    whole = go(NSGA2(pop_size=10))
+    (tmp_path / "metrics.json").unlink()  # as if killed after its last evaluation
+    with pytest.raises(KeyboardInterrupt):
+        go(CrashesAtGeneration3(pop_size=10))  # 30 of 80 evaluations replayed
+    _same_archives(read_archive(tmp_path / "archive.h5"), whole.archive, with_wall_time=True)
+    again = go(NSGA2(pop_size=10))
+    assert again.resumed_from == 80
+    _same_archives(again.archive, whole.archive, with_wall_time=True)
+
+
 def test_killed_sweep_skips_finished_runs_and_resumes_the_unfinished(tmp_path):
     sweep = ["-m", *SLOW_RUN, "seed=0,1", f"hydra.sweep.dir={tmp_path}"]
     run0 = tmp_path / _run_folder(SLOW_RUN, "seed=0")

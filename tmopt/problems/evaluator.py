@@ -119,10 +119,14 @@ class Evaluator:
         if len(X) > self.remaining:
             raise BudgetExhausted(f"problem {self.problem.name}: {len(X)} evaluations asked, "
                                   f"only {self.remaining} of budget={self.budget} left")
-        rows = self._from_replay(X) if self.n_replayed_left else self._evaluate_for_real(X)
+        replaying = self.n_replayed_left > 0
+        rows = self._from_replay(X) if replaying else self._evaluate_for_real(X)
         rows.batch = np.full(len(X), self.n_batches, dtype=np.int64)
         self.n_batches += 1
-        if self._persist:
+        # While replaying, the file on disk still holds the whole interrupted archive, a
+        # superset of what is in memory: rewriting it now would drop the not yet replayed
+        # tail if this run were killed too. The first real batch writes everything.
+        if self._persist and not replaying:
             self.archive.append(rows)
         else:
             self.archive.data.append(rows)
