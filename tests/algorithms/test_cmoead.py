@@ -2,28 +2,22 @@
 
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
-from omegaconf import OmegaConf
 from pymoo.core.population import Population
 
 from tmopt.algorithms.base import AlgorithmConfigError
 from tmopt.algorithms.cmoead import CMOEAD, ConstrainedMOEAD
-from tmopt.config import check_node
 from tmopt.problems.evaluator import Evaluator
 from tmopt.problems.suites import SUITE_PROBLEMS, PymooBenchmark
-from tmopt.runner import run_optimisation
 
-REPO = Path(__file__).resolve().parents[2]
-
-
-def run(alg, problem, budget, seed=0):
-    return run_optimisation(problem, alg, budget=budget, seed=seed, progress=False, plots=False)
+from .contract import (
+    algorithm_from_yaml,
+    assert_seed_decides_the_archive,
+    cli_metrics,
+    drive_to_budget,
+    run,
+)
 
 
 def moead_with(F, CV, max_replacements=4):
@@ -118,26 +112,13 @@ def test_mw3_reaches_the_feasible_front():
 
 @pytest.mark.parametrize("name", sorted(SUITE_PROBLEMS))
 def test_runs_on_every_suite_problem(name):
-    problem = PymooBenchmark(name)
-    alg = CMOEAD(pop_size=10)
-    budget = alg.initial_sample_size(problem) + 15
-    alg.setup(problem, budget=budget, seed=0)
-    ev = Evaluator(problem, budget)
-    while ev.remaining and alg.has_next():
-        X = alg.ask()
-        assert X.shape[1] == problem.n_var
-        assert np.all((X >= problem.xl) & (X <= problem.xu))
-        alg.tell(ev.evaluate(X[: ev.remaining]))
-    assert alg.n_evals == len(ev.archive) == budget
+    problem, alg = PymooBenchmark(name), CMOEAD(pop_size=10)
+    drive_to_budget(alg, problem, alg.initial_sample_size(problem) + 15)
 
 
 def test_same_seed_same_archive():
-    problem = PymooBenchmark("mw3", n_var=6)
-    a = run(CMOEAD(pop_size=20), problem, budget=80, seed=1)
-    b = run(CMOEAD(pop_size=20), problem, budget=80, seed=1)
-    c = run(CMOEAD(pop_size=20), problem, budget=80, seed=2)
-    assert np.array_equal(a.archive.X, b.archive.X)
-    assert not np.array_equal(a.archive.X, c.archive.X)
+    assert_seed_decides_the_archive(lambda: CMOEAD(pop_size=20),
+                                    PymooBenchmark("mw3", n_var=6), budget=80)
 
 
 @pytest.mark.parametrize("kwargs, text", [
@@ -163,17 +144,10 @@ def test_what_it_cannot_do_is_refused_with_its_name():
 
 
 def test_yaml_matches_the_constructor():
-    node = OmegaConf.load(REPO / "conf" / "algorithm" / "cmoead.yaml")
-    cls = check_node("algorithm", node, "cmoead")
-    kwargs = {k: v for k, v in OmegaConf.to_container(node).items() if not k.startswith("_")}
-    assert cls(**kwargs).name == "cmoead"
+    algorithm_from_yaml("cmoead")
 
 
 def test_cli_run(tmp_path):
-    out = subprocess.run(
-        [sys.executable, "-m", "tmopt", "problem=mw3", "algorithm=cmoead", "budget=40",
-         "algorithm.pop_size=20", "algorithm.batch_size=10", "plots=false",
-         f"hydra.run.dir={tmp_path}"], cwd=REPO, capture_output=True, text=True, timeout=300)
-    assert out.returncode == 0, out.stderr
-    metrics = json.loads((tmp_path / "metrics.json").read_text())
+    metrics = cli_metrics(tmp_path, "problem=mw3", "algorithm=cmoead", "budget=40",
+                          "algorithm.pop_size=20", "algorithm.batch_size=10")
     assert metrics["algorithm"] == "cmoead" and metrics["n_evals"] == 40

@@ -2,14 +2,8 @@
 
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
-from omegaconf import OmegaConf
 from pymoo.core.evaluator import Evaluator as PymooEvaluator
 from pymoo.core.population import Population
 from pymoo.core.problem import Problem
@@ -19,16 +13,16 @@ from pymoo.problems.static import StaticProblem
 from tmopt.algorithms._evolution import de_offspring, lexicographic_rank, nsga2_selection
 from tmopt.algorithms.base import AlgorithmConfigError
 from tmopt.algorithms.cmoes import CMOES, _Set, even_search, promising
-from tmopt.config import check_node
 from tmopt.problems.evaluator import Evaluator
 from tmopt.problems.suites import SUITE_PROBLEMS, PymooBenchmark
-from tmopt.runner import run_optimisation
 
-REPO = Path(__file__).resolve().parents[2]
-
-
-def run(alg, problem, budget, seed=0):
-    return run_optimisation(problem, alg, budget=budget, seed=seed, progress=False, plots=False)
+from .contract import (
+    algorithm_from_yaml,
+    assert_seed_decides_the_archive,
+    cli_metrics,
+    drive_to_budget,
+    run,
+)
 
 
 def test_promising_region_is_what_no_feasible_solution_dominates():
@@ -116,27 +110,14 @@ def test_mw3_reaches_the_feasible_front(operator):
 
 @pytest.mark.parametrize("name", sorted(SUITE_PROBLEMS))
 def test_runs_on_every_suite_problem(name):
-    problem = PymooBenchmark(name)
-    alg = CMOES(pop_size=6, stage_ratio=0.0)
-    budget = alg.initial_sample_size(problem) + 60
-    alg.setup(problem, budget=budget, seed=0)
-    ev = Evaluator(problem, budget)
-    while ev.remaining and alg.has_next():
-        X = alg.ask()
-        assert X.shape[1] == problem.n_var
-        assert np.all((X >= problem.xl) & (X <= problem.xu))
-        alg.tell(ev.evaluate(X[: ev.remaining]))
-    assert alg.n_evals == len(ev.archive) == budget
+    problem, alg = PymooBenchmark(name), CMOES(pop_size=6, stage_ratio=0.0)
+    drive_to_budget(alg, problem, alg.initial_sample_size(problem) + 60)
 
 
 def test_same_seed_same_archive():
-    problem = PymooBenchmark("mw3", n_var=6)
     for operator in ("ga", "de"):
-        a = run(CMOES(pop_size=10, operator=operator), problem, budget=300, seed=1)
-        b = run(CMOES(pop_size=10, operator=operator), problem, budget=300, seed=1)
-        c = run(CMOES(pop_size=10, operator=operator), problem, budget=300, seed=2)
-        assert np.array_equal(a.archive.X, b.archive.X)
-        assert not np.array_equal(a.archive.X, c.archive.X)
+        assert_seed_decides_the_archive(lambda op=operator: CMOES(pop_size=10, operator=op),
+                                        PymooBenchmark("mw3", n_var=6), budget=300)
 
 
 @pytest.mark.parametrize("kwargs, text", [
@@ -156,17 +137,10 @@ def test_budget_below_the_two_initial_populations_is_refused():
 
 
 def test_yaml_matches_the_constructor():
-    node = OmegaConf.load(REPO / "conf" / "algorithm" / "cmoes.yaml")
-    cls = check_node("algorithm", node, "cmoes")
-    kwargs = {k: v for k, v in OmegaConf.to_container(node).items() if not k.startswith("_")}
-    assert cls(**kwargs).name == "cmoes"
+    algorithm_from_yaml("cmoes")
 
 
 def test_cli_run(tmp_path):
-    out = subprocess.run(
-        [sys.executable, "-m", "tmopt", "problem=mw1", "algorithm=cmoes", "budget=100",
-         "algorithm.pop_size=10", "algorithm.operator=de", "plots=false",
-         f"hydra.run.dir={tmp_path}"], cwd=REPO, capture_output=True, text=True, timeout=300)
-    assert out.returncode == 0, out.stderr
-    metrics = json.loads((tmp_path / "metrics.json").read_text())
+    metrics = cli_metrics(tmp_path, "problem=mw1", "algorithm=cmoes", "budget=100",
+                          "algorithm.pop_size=10", "algorithm.operator=de")
     assert metrics["algorithm"] == "cmoes" and metrics["n_evals"] == 100

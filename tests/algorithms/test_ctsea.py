@@ -2,11 +2,8 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
-from omegaconf import OmegaConf
 
 from tmopt.algorithms.base import AlgorithmConfigError
 from tmopt.algorithms.ctsea import (
@@ -18,15 +15,9 @@ from tmopt.algorithms.ctsea import (
     uniform_points,
     update_ref_points,
 )
-from tmopt.config import check_node
 from tmopt.problems.suites import PymooBenchmark
-from tmopt.runner import run_optimisation
 
-REPO = Path(__file__).resolve().parents[2]
-
-
-def run(alg, problem, budget, seed=0):
-    return run_optimisation(problem, alg, budget=budget, seed=seed, progress=False, plots=False)
+from .contract import algorithm_from_yaml, assert_seed_decides_the_archive, run
 
 
 def igd_ns(dist: np.ndarray) -> float:
@@ -105,11 +96,8 @@ def test_stage_two_straight_after_the_initial_population_works():
 
 
 def test_same_seed_same_archive():
-    a = run(CTSEA(pop_size=20), PymooBenchmark("mw3", n_var=6), budget=200, seed=1)
-    b = run(CTSEA(pop_size=20), PymooBenchmark("mw3", n_var=6), budget=200, seed=1)
-    c = run(CTSEA(pop_size=20), PymooBenchmark("mw3", n_var=6), budget=200, seed=2)
-    assert np.array_equal(a.archive.X, b.archive.X)
-    assert not np.array_equal(a.archive.X, c.archive.X)
+    assert_seed_decides_the_archive(lambda: CTSEA(pop_size=20), PymooBenchmark("mw3", n_var=6),
+                                    budget=200)
 
 
 @pytest.mark.parametrize("kwargs, text", [
@@ -128,7 +116,4 @@ def test_budget_below_the_population_is_refused():
 
 
 def test_yaml_matches_the_constructor():
-    node = OmegaConf.load(REPO / "conf" / "algorithm" / "ctsea.yaml")
-    cls = check_node("algorithm", node, "ctsea")
-    kwargs = {k: v for k, v in OmegaConf.to_container(node).items() if not k.startswith("_")}
-    assert cls(**kwargs).name == "ctsea"
+    algorithm_from_yaml("ctsea")

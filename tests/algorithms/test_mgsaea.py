@@ -7,11 +7,8 @@ test_mgsaea_gp.py.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
-from omegaconf import OmegaConf
 from scipy.interpolate import RBFInterpolator
 
 from tmopt.algorithms.base import AlgorithmConfigError
@@ -25,14 +22,12 @@ from tmopt.algorithms.mgsaea import (
     violation_scale,
 )
 from tmopt.algorithms.selection import total_violation
-from tmopt.config import check_node
 from tmopt.metrics.selection import best_compromise
 from tmopt.problems.base import ConstraintGroup, ExpensiveProblem
 from tmopt.problems.suites import PymooBenchmark
-from tmopt.runner import run_optimisation
 from tmopt.surrogates.base import Surrogate
 
-REPO = Path(__file__).resolve().parents[2]
+from .contract import algorithm_from_yaml, run
 
 
 class RBFDouble(Surrogate):
@@ -66,10 +61,6 @@ class TwoGroupProblem(ExpensiveProblem):
         f2 = 1.0 - np.sqrt(X[:, 0]) + np.sum((X[:, 1:] - 0.5) ** 2, axis=1)
         out["F"] = np.column_stack([f1, f2])
         out["G"] = np.column_stack([0.3 - X[:, 1], X[:, 2] - 0.8, 0.5 - X[:, 3]])
-
-
-def run(alg, problem, budget, seed=0):
-    return run_optimisation(problem, alg, budget=budget, seed=seed, progress=False, plots=False)
 
 
 def small(cls=MGSAEA, **kw):
@@ -269,8 +260,4 @@ def test_unconstrained_problem_runs_every_variant(cls):
 
 @pytest.mark.parametrize("name", ["mgsaea", "mgsaea_ipc", "mgsaea_star"])
 def test_yaml_matches_the_constructor(name):
-    node = OmegaConf.load(REPO / "conf" / "algorithm" / f"{name}.yaml")
-    cls = check_node("algorithm", node, name)
-    kwargs = {k: v for k, v in OmegaConf.to_container(node).items() if not k.startswith("_")}
-    alg = cls(**kwargs, surrogate=RBFDouble)
-    assert alg.name == name
+    algorithm_from_yaml(name, surrogate=RBFDouble)

@@ -2,30 +2,20 @@
 
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
-from omegaconf import OmegaConf
 from scipy.stats import qmc
 
 from tmopt.algorithms.base import AlgorithmConfigError
 from tmopt.algorithms.qlognehvi import QLogNEHVI, reference_nadir
-from tmopt.config import check_node
 from tmopt.problems.evaluator import EvaluatedBatch, Evaluator
 from tmopt.problems.suites import SUITE_PROBLEMS, PymooBenchmark
 from tmopt.runner import run_optimisation
 
-REPO = Path(__file__).resolve().parents[2]
+from .contract import algorithm_from_yaml, cli_metrics, drive_to_budget, run
+
 #: Small settings so one BO iteration takes a few seconds on two cores.
 FAST = dict(q=2, num_restarts=2, raw_samples=32, acq_maxiter=20, mc_samples=16, gp_max_iter=50)
-
-
-def run(alg, problem, budget, seed=0):
-    return run_optimisation(problem, alg, budget=budget, seed=seed, progress=False, plots=False)
 
 
 def test_reference_nadir_uses_the_feasible_front_or_everything():
@@ -88,16 +78,8 @@ def test_three_objectives():
 @pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(SUITE_PROBLEMS))
 def test_runs_on_every_suite_problem(name):
-    problem = PymooBenchmark(name)
-    alg = QLogNEHVI(**FAST)
-    budget = alg.initial_sample_size(problem) + 2
-    alg.setup(problem, budget=budget, seed=0)
-    ev = Evaluator(problem, budget)
-    while ev.remaining:
-        X = alg.ask()
-        assert np.all((X >= problem.xl) & (X <= problem.xu))
-        alg.tell(ev.evaluate(X[: ev.remaining]))
-    assert alg.n_evals == budget
+    problem, alg = PymooBenchmark(name), QLogNEHVI(**FAST)
+    drive_to_budget(alg, problem, alg.initial_sample_size(problem) + 2)
 
 
 def test_max_iter_stops_the_run_before_the_budget():
@@ -195,20 +177,13 @@ def test_all_initial_designs_failing_is_a_clear_error():
 
 
 def test_yaml_matches_the_constructor():
-    node = OmegaConf.load(REPO / "conf" / "algorithm" / "qlognehvi.yaml")
-    cls = check_node("algorithm", node, "qlognehvi")
-    kwargs = {k: v for k, v in OmegaConf.to_container(node).items() if not k.startswith("_")}
-    assert cls(**kwargs).name == "qlognehvi"
+    algorithm_from_yaml("qlognehvi")
 
 
 def test_cli_run(tmp_path):
     fast = [f"algorithm.{k}={v}" for k, v in FAST.items()]
-    out = subprocess.run(
-        [sys.executable, "-m", "tmopt", "problem=mw3", "problem.n_var=4", "algorithm=qlognehvi",
-         "budget=12", "algorithm.n_init=10", *fast, "plots=false", f"hydra.run.dir={tmp_path}"],
-        cwd=REPO, capture_output=True, text=True, timeout=300)
-    assert out.returncode == 0, out.stderr
-    metrics = json.loads((tmp_path / "metrics.json").read_text())
+    metrics = cli_metrics(tmp_path, "problem=mw3", "problem.n_var=4", "algorithm=qlognehvi",
+                          "budget=12", "algorithm.n_init=10", *fast)
     assert metrics["algorithm"] == "qlognehvi" and metrics["n_evals"] == 12
 
 

@@ -2,27 +2,25 @@
 
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
-from omegaconf import OmegaConf
 from pymoo.indicators.hv import HV
 
 from tmopt.algorithms.base import AlgorithmConfigError
 from tmopt.algorithms.selection import total_violation
 from tmopt.algorithms.som import SelfOrganisingMap
 from tmopt.algorithms.ssde import SSDE
-from tmopt.config import check_node
 from tmopt.problems.base import ExpensiveProblem
 from tmopt.problems.evaluator import EvaluatedBatch, Evaluator
 from tmopt.problems.suites import SUITE_PROBLEMS, PymooBenchmark
-from tmopt.runner import run_optimisation
 
-REPO = Path(__file__).resolve().parents[2]
+from .contract import (
+    algorithm_from_yaml,
+    assert_seed_decides_the_archive,
+    cli_metrics,
+    drive_to_budget,
+    run,
+)
 
 
 class ZDT1(ExpensiveProblem):
@@ -34,10 +32,6 @@ class ZDT1(ExpensiveProblem):
     def _evaluate(self, X, out, *args, **kwargs):
         g = 1.0 + 9.0 * X[:, 1:].mean(axis=1)
         out["F"] = np.column_stack([X[:, 0], g * (1.0 - np.sqrt(X[:, 0] / g))])
-
-
-def run(alg, problem, budget, seed=0):
-    return run_optimisation(problem, alg, budget=budget, seed=seed, progress=False, plots=False)
 
 
 def som(n_nodes=5, n_var=2, n_out=1, epochs=1, sigma0=0.5, seed=0):
@@ -162,26 +156,13 @@ def test_failed_designs_are_never_training_samples():
 
 @pytest.mark.parametrize("name", sorted(SUITE_PROBLEMS))
 def test_runs_on_every_suite_problem(name):
-    problem = PymooBenchmark(name)
-    alg = SSDE(pop_size=10)
-    budget = alg.initial_sample_size(problem) + 20
-    alg.setup(problem, budget=budget, seed=0)
-    ev = Evaluator(problem, budget)
-    while ev.remaining and alg.has_next():
-        X = alg.ask()
-        assert X.shape[1] == problem.n_var
-        assert np.all((X >= problem.xl) & (X <= problem.xu))
-        alg.tell(ev.evaluate(X[: ev.remaining]))
-    assert alg.n_evals == len(ev.archive) == budget
+    problem, alg = PymooBenchmark(name), SSDE(pop_size=10)
+    drive_to_budget(alg, problem, alg.initial_sample_size(problem) + 20)
 
 
 def test_same_seed_same_archive():
-    problem = PymooBenchmark("mw3", n_var=6)
-    a = run(SSDE(pop_size=20), problem, budget=200, seed=1)
-    b = run(SSDE(pop_size=20), problem, budget=200, seed=1)
-    c = run(SSDE(pop_size=20), problem, budget=200, seed=2)
-    assert np.array_equal(a.archive.X, b.archive.X)
-    assert not np.array_equal(a.archive.X, c.archive.X)
+    assert_seed_decides_the_archive(lambda: SSDE(pop_size=20), PymooBenchmark("mw3", n_var=6),
+                                    budget=200)
 
 
 @pytest.mark.parametrize("kwargs, text", [
@@ -203,17 +184,10 @@ def test_budget_below_the_population_is_refused():
 
 
 def test_yaml_matches_the_constructor():
-    node = OmegaConf.load(REPO / "conf" / "algorithm" / "ssde.yaml")
-    cls = check_node("algorithm", node, "ssde")
-    kwargs = {k: v for k, v in OmegaConf.to_container(node).items() if not k.startswith("_")}
-    assert cls(**kwargs).name == "ssde"
+    algorithm_from_yaml("ssde")
 
 
 def test_cli_run(tmp_path):
-    out = subprocess.run(
-        [sys.executable, "-m", "tmopt", "problem=mw3", "algorithm=ssde", "budget=60",
-         "algorithm.pop_size=20", "plots=false", f"hydra.run.dir={tmp_path}"],
-        cwd=REPO, capture_output=True, text=True, timeout=300)
-    assert out.returncode == 0, out.stderr
-    metrics = json.loads((tmp_path / "metrics.json").read_text())
+    metrics = cli_metrics(tmp_path, "problem=mw3", "algorithm=ssde", "budget=60",
+                          "algorithm.pop_size=20")
     assert metrics["algorithm"] == "ssde" and metrics["n_evals"] == 60
