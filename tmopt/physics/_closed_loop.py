@@ -17,6 +17,8 @@ import numba as nb
 import numpy as np
 from numba.extending import register_jitable
 
+from tmopt.physics.dynamics import zoh_coefficients  # the exact ZOH step of Eqs. 1-2
+
 # --- layout of the packed parameter vector ``par`` (see simulator._pack_parameters) ---
 P_DT = 0
 P_K = 1  # 4 stiffnesses [k1xx, k2xx, k1yy, k2yy]
@@ -76,31 +78,6 @@ S_GAIN, S_DK, S_FORCE, S_OMEGA, S_OMEGA_DOT, N_S = 0, 4, 8, 12, 15, 18
 
 # divergence status codes (status[:, 0]); status[:, 1] is the sample index
 OK, OUT_X1, OUT_X2, OUT_Y1, OUT_Y2, BAD_FORCE, BAD_ESTIMATE = 0, 1, 2, 3, 4, 5, 6
-
-
-@register_jitable
-def zoh_coefficients(k, h):
-    """Exact ZOH coefficients (C, S, G) of ``r'' = k r + a`` (see dynamics.zoh_coefficients)."""
-    z = k * h * h
-    if abs(z) < 0.1:
-        # even power series in z: no cancellation in cosh - 1 for tiny stiffness
-        c, s, g = 0.0, 0.0, 0.0
-        term = 1.0
-        for n in range(12):
-            c += term
-            term_s = term / (2 * n + 1)
-            s += term_s
-            g += term_s / (2 * n + 2)
-            term = term * z / ((2 * n + 1) * (2 * n + 2))
-        return c, s * h, g * h * h
-    w = math.sqrt(abs(k))
-    if k > 0:
-        c = math.cosh(w * h)
-        s = math.sinh(w * h) / w
-    else:
-        c = math.cos(w * h)
-        s = math.sin(w * h) / w
-    return c, s, (c - 1.0) / k
 
 
 @register_jitable
