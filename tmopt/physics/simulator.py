@@ -475,8 +475,10 @@ def simulate_reference(
 ) -> SimulationResult:
     """The same model run design by design in the plain Python interpreter (slow).
 
-    Calls the very same step functions as :func:`simulate`, uncompiled: the benchmark's
-    reference and an independent check that compilation does not change the model.
+    Calls the very same step functions as :func:`simulate`, uncompiled (only the ZOH
+    coefficients, computed once per design, come from the jitted
+    :func:`~tmopt.physics.dynamics.zoh_coefficients`): the benchmark's reference and an
+    independent check that compilation does not change the model.
     """
     config = SimulationConfig() if config is None else config
     io = prepare(ref1, ref2, config, seed, perturbations)
