@@ -18,14 +18,21 @@ from .contract import algorithm_from_yaml, cli_metrics, drive_to_budget, run
 FAST = dict(q=2, num_restarts=2, raw_samples=32, acq_maxiter=20, mc_samples=16, gp_max_iter=50)
 
 
-def test_reference_nadir_uses_the_feasible_front_or_everything():
-    Fn = np.array([[0.0, 1.0], [0.2, 0.4], [0.5, 0.5], [1.0, 0.0], [0.9, 0.9]])
+def test_reference_nadir_over_the_feasible_designs_their_front_or_everything():
+    Fn = np.array([[0.0, 1.0], [0.2, 0.4], [0.5, 0.5], [1.0, 0.0], [0.9, 0.3]])
     G = np.array([[1.0], [-1.0], [-1.0], [2.0], [-0.5]])
-    # feasible rows 1, 2, 4: front {(0.2, 0.4)}; nadir = its own values
-    assert np.allclose(reference_nadir(Fn, G), [0.2, 0.4])
-    # nothing feasible: front of all rows {(0,1), (0.2,0.4), (1,0)}
-    assert np.allclose(reference_nadir(Fn, np.ones((5, 1))), [1.0, 1.0])
-    assert np.allclose(reference_nadir(Fn, np.zeros((5, 0))), [1.0, 1.0])
+    # the default: every design, feasible or not
+    assert np.allclose(reference_nadir(Fn, G), [1.0, 1.0])
+    # feasible rows 1, 2, 4: worst of each objective over them
+    assert np.allclose(reference_nadir(Fn, G, "feasible"), [0.9, 0.5])
+    # their front {(0.2, 0.4), (0.9, 0.3)}: worst over it
+    assert np.allclose(reference_nadir(Fn, G, "front"), [0.9, 0.4])
+    # every design, feasible or not
+    assert np.allclose(reference_nadir(Fn, G, "all"), [1.0, 1.0])
+    # nothing feasible: over all rows (front: {(0,1), (0.2,0.4), (1,0), (0.9,0.3)})
+    for rule in ("feasible", "front", "all"):
+        assert np.allclose(reference_nadir(Fn, np.ones((5, 1)), rule), [1.0, 1.0])
+        assert np.allclose(reference_nadir(Fn, np.zeros((5, 0)), rule), [1.0, 1.0])
 
 
 def test_training_targets_normalise_negate_and_keep_feasibility():
@@ -37,8 +44,11 @@ def test_training_targets_normalise_negate_and_keep_feasibility():
     assert np.allclose(Y[:, :2], -np.array([[0.0, 1.0], [1.0, 0.0], [0.5, 0.5]]))
     assert np.allclose(Y[:, 2:], [[-1.0, 0.5], [0.5, -1.0], [-0.25, -0.25]])
     assert np.array_equal(Y[:, 2:] <= 0, alg.G <= 0)
-    # only row 2 is feasible: ref = -(its normalised objectives + 0.1)
-    assert np.allclose(ref, [-0.6, -0.6])
+    # default rule: ref = -(1 + 0.1) whatever is feasible
+    assert np.allclose(ref, [-1.1, -1.1])
+    # rule "feasible": only row 2 is feasible, ref = -(its normalised objectives + 0.1)
+    alg.ref_point = "feasible"
+    assert np.allclose(alg._training_targets()[1], [-0.6, -0.6])
 
 
 @pytest.mark.filterwarnings("ignore:The balance properties")
@@ -154,6 +164,8 @@ def test_seconds_per_iteration_at_300_points_d18():
     ({"kernel": "linear"}, r"kernel must be one of \('rbf', 'matern52'\), got 'linear'"),
     ({"threads": 0}, "threads must be an integer >= 1, got 0"),
     ({"max_iter": -1}, "max_iter must be an integer >= 0, got -1"),
+    ({"ref_point": "ideal"},
+     r"ref_point must be one of \('feasible', 'front', 'all'\), got 'ideal'"),
 ])
 def test_bad_arguments_are_named(kwargs, text):
     with pytest.raises(AlgorithmConfigError, match="qlognehvi: " + text):
