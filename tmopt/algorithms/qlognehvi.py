@@ -158,6 +158,7 @@ class QLogNEHVI(Algorithm):
     # ---- ask ----------------------------------------------------------------------------------
     def _infill(self) -> np.ndarray:
         p = self.problem
+        replayed = None
         if self.iteration == 0:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # n need not be a power of 2 here
@@ -166,11 +167,8 @@ class QLogNEHVI(Algorithm):
         else:
             replayed = self.replayed(self.q)
             U = self._propose(maximise=replayed is None)
-            if replayed is not None:
-                self.iteration += 1
-                return replayed
         self.iteration += 1
-        return p.xl + U * (p.xu - p.xl)
+        return replayed if replayed is not None else p.xl + U * (p.xu - p.xl)
 
     def _propose(self, maximise: bool = True) -> np.ndarray | None:
         """q new points in the unit cube: fit the GPs, then maximise qLogNEHVI.
@@ -247,9 +245,10 @@ REFERENCE_RULES = ("feasible", "front", "all")
 
 
 def reference_nadir(Fn: np.ndarray, G: np.ndarray, rule: str = "all") -> np.ndarray:
-    """Worst value per objective over the feasible designs (or over all while none is).
+    """Worst value per objective over the designs that ``rule`` names.
 
-    ``rule="feasible"``: over every feasible design. ``rule="front"``: over their
+    ``rule="feasible"``: over every feasible design (over all while none is feasible, as
+    for "front"). ``rule="front"``: over their
     non-dominated set only — tighter, but the hypervolume improvement is then zero beyond
     the current front's extent + ``ref_offset``, so a front found at one end can grow by
     at most ``ref_offset`` per iteration. ``rule="all"``: over every design, feasible or

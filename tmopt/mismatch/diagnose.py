@@ -501,6 +501,18 @@ def _significant(evals: list[Evaluation], alpha: float) -> list[Evaluation]:
     return [e for e in evals if e.p_holm < alpha and e.dbic > 0]
 
 
+def _take_best(data, basis, state: State, sig: list[Evaluation], exclude: set[str],
+               settings: Settings):  # fmt: skip
+    """Add the significant candidate with the largest dBIC to the model: returns (it, its
+    near rivals within AMBIGUOUS_DBIC) and the refitted state. A glitch stays testable
+    (a record can hold several); any other chosen candidate joins ``exclude``."""
+    best = max(sig, key=lambda e: e.dbic)
+    alts = [e for e in sig if e is not best and best.dbic - e.dbic < cal.AMBIGUOUS_DBIC]
+    if best.candidate.effect != "glitch":
+        exclude.add(best.candidate.key)
+    return (best, alts), _add(data, basis, state, best, settings)
+
+
 def _deterministic_instead(data, basis, state: State, evals: list[Evaluation],
                            settings: Settings, exclude: set[str], n_tests: int):  # fmt: skip
     """When coloured noise is the best explanation, try up to two deterministic effects
@@ -512,12 +524,8 @@ def _deterministic_instead(data, basis, state: State, evals: list[Evaluation],
         det = [e for e in _significant(evals, settings.alpha) if e.candidate.group != "noise"]
         if not det:
             return None
-        best = max(det, key=lambda e: e.dbic)
-        if best.candidate.effect != "glitch":
-            ex.add(best.candidate.key)
-        alts = [e for e in det if e is not best and best.dbic - e.dbic < cal.AMBIGUOUS_DBIC]
-        trial = _add(data, basis, trial, best, settings)
-        chosen.append((best, alts))
+        pair, trial = _take_best(data, basis, trial, det, ex, settings)
+        chosen.append(pair)
         evals = evaluate(data, basis, trial, settings, ex)
         noise = [e for e in evals if e.candidate.group == "noise"]
         if not noise or n_tests * noise[0].p_value >= settings.alpha:
@@ -547,11 +555,8 @@ def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
                 chosen, state, exclude = alt
                 selected += chosen
                 continue
-        alts = [e for e in sig if e is not best and best.dbic - e.dbic < cal.AMBIGUOUS_DBIC]
-        if best.candidate.effect not in ("glitch",):
-            exclude.add(best.candidate.key)
-        state = _add(data, basis, state, best, settings)
-        selected.append((best, alts))
+        pair, state = _take_best(data, basis, state, sig, exclude, settings)
+        selected.append(pair)
     n_tests = len(steps[0]) if steps else 1
     if len(selected) > 1:
         kept = _backward(data, basis, selected, settings, n_tests)
