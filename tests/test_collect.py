@@ -209,3 +209,29 @@ def test_an_algorithms_own_parameters_do_not_hide_its_reference(tmp_path):
     from tmopt.reporting.tables import markdown_rows
     _, body = markdown_rows(rows, STIFFNESS_METRICS, keys, "mgsaea_ipc")
     assert not any("†" in cell for row in body for cell in row)  # same budget: no flag
+
+
+def test_two_sweeps_compared_setting_by_setting(tmp_path):
+    from tmopt.reporting.compare import compare_sweeps
+
+    for sweep, shift in (("a", 0.0), ("b", 0.5)):
+        for seed in range(3):
+            _run(tmp_path / sweep, f"mw1_{seed}", {"problem": "mw1", "seed": seed},
+                 algorithm="mgsaea", problem="mw1", seed=seed, m=None,
+                 igd=0.1 + shift + 0.01 * seed, hv=0.9 - shift - 0.01 * seed)
+        _run(tmp_path / sweep, f"only_{sweep}", {"problem": "mw3"}, algorithm="mgsaea",
+             problem=f"mw3{sweep}", m=None, igd=0.1, hv=0.5)
+    text = compare_sweeps(tmp_path / "a", tmp_path / "b", ["problem", "algorithm"],
+                          ("rbf", "gp"))
+    lines = text.splitlines()
+    assert lines[0].startswith("| problem | algorithm | runs | igd rbf | igd gp | p (igd) |")
+    # only the setting present in both sweeps; B's IGD higher and HV lower: worse twice,
+    # 3 vs 3 completely separated -> exact p = 0.1, which is not significant
+    assert len(lines) == 3
+    assert lines[2] == ("| mw1 | mgsaea | 3 / 3 | 0.11 ± 0.01 | 0.61 ± 0.01 | 0.100 = "
+                        "| 0.89 ± 0.01 | 0.39 ± 0.01 | 0.100 = |")
+    _run(tmp_path / "d", "mw5", {"problem": "mw5"}, problem="mw5", m=None, igd=0.1, hv=0.5)
+    with pytest.raises(ValueError, match="no setting"):
+        compare_sweeps(tmp_path / "a", tmp_path / "d", ["problem"])
+    with pytest.raises(FileNotFoundError, match="does not exist"):
+        compare_sweeps(tmp_path / "a", tmp_path / "c", ["problem"])
