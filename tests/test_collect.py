@@ -235,3 +235,12 @@ def test_two_sweeps_compared_setting_by_setting(tmp_path):
         compare_sweeps(tmp_path / "a", tmp_path / "d", ["problem"])
     with pytest.raises(FileNotFoundError, match="does not exist"):
         compare_sweeps(tmp_path / "a", tmp_path / "c", ["problem"])
+
+
+def test_labels_leave_out_keys_the_algorithm_does_not_have():
+    from tmopt.reporting.tables import label
+
+    assert label({"algorithm": "nsga2", "experiment": "paper",
+                  "algorithm.batch_size": ""}) == "NSGA-II (experiment=paper)"
+    assert label({"algorithm": "cmoead", "algorithm.batch_size": "100"}) == \
+        "C-MOEA/D (algorithm.batch_size=100)"

@@ -149,9 +149,11 @@ def _same_but(a: Setting, b: Setting, keys: tuple[str, ...]) -> bool:
 
 # ---- formatting -------------------------------------------------------------------------
 def label(setting: dict, hide: Sequence[str] = ()) -> str:
-    """``NSGA-II (budget=300)``: the algorithm's display name, then the other keys."""
+    """``NSGA-II (budget=300)``: the algorithm's display name, then the other keys (a key
+    the algorithm does not have, value ``""``, is left out)."""
     algo = setting.get("algorithm")
-    rest = [f"{k}={v}" for k, v in setting.items() if k not in (*hide, "algorithm")]
+    rest = [f"{k}={v}" for k, v in setting.items()
+            if k not in (*hide, "algorithm") and v != ""]
     name = display_name(algo) if algo else ""
     if not rest:
         return name
