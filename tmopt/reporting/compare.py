@@ -9,22 +9,20 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from tmopt.reporting.runs import RunRecord, discover_runs
+from tmopt.reporting.runs import COMPLETE, RunRecord, deduplicate, discover_runs, group_runs
 from tmopt.reporting.stats import fmt_mean_std, fmt_p, mark, rank_sum
 
 #: metric key -> lower is better
 SUITE_METRICS = {"igd": True, "hv": False}
 
 
-def by_setting(sweep: Path, keys: list[str]) -> dict[tuple[str, ...], list[RunRecord]]:
-    """Complete runs of ``sweep`` grouped by their values of ``keys``."""
+def by_setting(sweep: Path, keys: list[str]) -> dict[tuple, list[RunRecord]]:
+    """Complete runs of ``sweep`` (each configuration and seed once, as collect counts
+    them) grouped by their values of ``keys``."""
     if not Path(sweep).is_dir():
         raise FileNotFoundError(f"sweep folder {sweep} does not exist")
-    groups: dict[tuple[str, ...], list[RunRecord]] = {}
-    for run in discover_runs(sweep):
-        if run.status == "complete":
-            groups.setdefault(tuple(run.value(k) for k in keys), []).append(run)
-    return groups
+    runs, _ = deduplicate([r for r in discover_runs(sweep) if r.status == COMPLETE])
+    return group_runs(runs, keys)
 
 
 def _values(runs: list[RunRecord], key: str) -> list[float | None]:
@@ -47,7 +45,7 @@ def compare_sweeps(sweep_a: Path, sweep_b: Path, keys: list[str],
         head += [f"{m} {labels[0]}", f"{m} {labels[1]}", f"p ({m})"]
     lines = ["| " + " | ".join(head) + " |", "|" + " --- |" * len(head)]
     for setting in common:
-        cells = [*setting, f"{len(a[setting])} / {len(b[setting])}"]
+        cells = [*(value for _, value in setting), f"{len(a[setting])} / {len(b[setting])}"]
         for m, lower in metrics.items():
             xa, xb = _values(a[setting], m), _values(b[setting], m)
             p = rank_sum(xb, xa)
