@@ -30,7 +30,7 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"--labels must be two names separated by a comma, got {args.labels!r}")
     try:
         print(compare_sweeps(args.sweep_a, args.sweep_b, args.keys.split(","),
-                             (labels[0], labels[1])))
+                             (labels[0], labels[1])), end="")
     except (FileNotFoundError, ValueError) as err:
         ap.error(str(err))
     return 0

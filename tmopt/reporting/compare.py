@@ -11,6 +11,7 @@ from pathlib import Path
 
 from tmopt.reporting.runs import COMPLETE, RunRecord, deduplicate, discover_runs, group_runs
 from tmopt.reporting.stats import fmt_mean_std, fmt_p, mark, rank_sum
+from tmopt.reporting.tables import to_markdown
 
 #: metric key -> lower is better
 SUITE_METRICS = {"igd": True, "hv": False}
@@ -43,7 +44,7 @@ def compare_sweeps(sweep_a: Path, sweep_b: Path, keys: list[str],
     head = [*keys, "runs"]
     for m in metrics:
         head += [f"{m} {labels[0]}", f"{m} {labels[1]}", f"p ({m})"]
-    lines = ["| " + " | ".join(head) + " |", "|" + " --- |" * len(head)]
+    body = []
     for setting in common:
         cells = [*(value for _, value in setting), f"{len(a[setting])} / {len(b[setting])}"]
         for m, lower in metrics.items():
@@ -51,5 +52,5 @@ def compare_sweeps(sweep_a: Path, sweep_b: Path, keys: list[str],
             p = rank_sum(xb, xa)
             cells += [fmt_mean_std(xa), fmt_mean_std(xb),
                       f"{fmt_p(p)} {mark(xb, xa, p, lower_is_better=lower)}".strip()]
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+        body.append(cells)
+    return to_markdown(head, body)
