@@ -15,6 +15,10 @@ several folders may be given) and writes into ``--out`` (default
   (the chosen motion state, re-simulated);
 - benchmark suites: ``benchmarks.md/.csv`` (IGD, IGD+, HV mean ± std, p-values of IGD and
   HV against the reference) with ``benchmarks_igd.png`` and ``benchmarks_hv.png``.
+- with ``--at K[,K...]``: ``anytime.md/.csv`` (every setting after its runs' first K real
+  evaluations: the choice each run would report had it stopped there, incomplete runs
+  included as far as they got, tested against the reference at the same K) and
+  ``anytime.png`` (M, or HV, against evaluations; tmopt.reporting.anytime).
 
 Settings are the keys whose effective value differs between runs (tmopt.reporting.runs);
 statistics use complete runs only, and every table says how many of a setting's runs
@@ -29,7 +33,7 @@ import sys
 from pathlib import Path
 
 from tmopt.archive import atomic_write_text
-from tmopt.reporting import figures
+from tmopt.reporting import anytime, figures
 from tmopt.reporting.paper import algorithm_order, display_name
 from tmopt.reporting.runs import (
     COMPLETE,
@@ -41,6 +45,8 @@ from tmopt.reporting.runs import (
 )
 from tmopt.reporting.stats import fmt_number
 from tmopt.reporting.tables import (
+    ANYTIME_BENCHMARK_METRICS,
+    ANYTIME_STIFFNESS_METRICS,
     BENCHMARK_METRICS,
     STIFFNESS_METRICS,
     csv_rows,
@@ -66,7 +72,7 @@ TEST_NOTE = ("p: two-sided Wilcoxon rank-sum test (scipy.stats.mannwhitneyu, exa
 
 def collect(sweep_dir: Path | list[Path], out: Path | None = None,
             reference: str = DEFAULT_REFERENCE, fig10_run: Path | None = None,
-            fig10: bool = True) -> list[Path]:
+            fig10: bool = True, at: list[int] | None = None) -> list[Path]:
     """Write every table and figure of the sweep(s) in ``sweep_dir``; return the files written.
 
     Several sweep folders (a list) are collected as one: e.g. the same algorithms at two
@@ -88,6 +94,8 @@ def collect(sweep_dir: Path | list[Path], out: Path | None = None,
                                   fig10)
     if suites:
         notes.append(_write_benchmarks(suites, out, reference))
+    if at:
+        notes.append(_write_anytime(runs, out, reference, at))
     label = ", ".join(map(str, dirs))
     atomic_write_text(out / "summary.md", _summary(label, runs, duplicates, notes))
     return sorted(p for p in out.iterdir() if p.is_file())
@@ -267,6 +275,53 @@ def _write_benchmarks(runs: list[RunRecord], out: Path, reference: str) -> str:
     return f"`benchmarks.md`, `benchmarks_igd.png`, `benchmarks_hv.png`: {len(rows)} settings."
 
 
+# ---- anytime ----------------------------------------------------------------------------
+def _write_anytime(runs: list[RunRecord], out: Path, reference: str, at: list[int]) -> str:
+    """``anytime.md/.csv`` at the counts ``at``, ``anytime.png`` on a grid of counts (with
+    ``_stiffness``/``_benchmarks`` in the names when a sweep holds both kinds)."""
+    kinds = [kind for kind in (True, False) if any(r.is_stiffness == kind for r in runs)]
+    notes = []
+    for stiffness in kinds:
+        stem = "anytime" if len(kinds) == 1 else (
+            "anytime_stiffness" if stiffness else "anytime_benchmarks")
+        part = [r for r in runs if r.is_stiffness == stiffness]
+        notes.append(_write_anytime_kind(part, out, reference, at, stiffness, stem))
+    return " ".join(notes)
+
+
+def _write_anytime_kind(runs: list[RunRecord], out: Path, reference: str, at: list[int],
+                        stiffness: bool, stem: str) -> str:
+    grid = anytime.curve_counts(runs, at)
+    records = [rec for run in runs for rec in anytime.anytime_records(run, grid)]
+    if not records:
+        return f"`{stem}` not written: no readable archive."
+    metrics = ANYTIME_STIFFNESS_METRICS if stiffness else ANYTIME_BENCHMARK_METRICS
+    keys = [k for k in _with(setting_keys(runs), ("problem",))
+            if not (stiffness and k == "problem")] + [anytime.EVALS_KEY]
+    rows = summarise(group_runs(records, keys), metrics, reference)
+    rows.sort(key=lambda r: (int(r["setting"][anytime.EVALS_KEY]), _setting_order(r)))
+    shown = [r for r in rows if int(r["setting"][anytime.EVALS_KEY]) in at]
+    header, body = markdown_rows(shown, metrics, keys, reference)
+    key = "M_TM1" if stiffness else "hv"
+    write_table(out, stem, "After the first K real evaluations of each run", header,
+                body, csv_rows(shown, metrics, keys),
+                "Each run's archive cut after its first K evaluations and its final choice "
+                "taken there (Eq. 21 on the feasible non-dominated set, else the least "
+                "violating design); numbers from the archived objectives. runs: runs that "
+                "reached K / all runs of the setting (unfinished runs count as far as they "
+                "got). " + TEST_NOTE)
+    lengths = [r.budget or r.n_evals or 0 for r in runs]
+    log_x = min(lengths) > 0 and max(lengths) > 5 * min(lengths)  # e.g. 697 beside 10 000
+    figures.anytime_curves(rows, key, out / f"{stem}.png", log_x)
+    where = "stiffness problem" if stiffness else "benchmark suites"
+    return (f"`{stem}.md`, `{stem}.png`: {where}, after {', '.join(map(str, at))} "
+            f"evaluations ({len(runs)} runs).")
+
+
+def _setting_order(row: dict) -> tuple:
+    return (row["setting"].get("problem", ""), *_row_order(row))
+
+
 # ---- helpers ----------------------------------------------------------------------------
 def _with(keys: list[str], extra: tuple[str, ...]) -> list[str]:
     return [*keys, *(k for k in extra if k not in keys)]
@@ -326,11 +381,18 @@ def main(argv: list[str] | None = None) -> int:
                     help="run folder whose chosen design Fig. 10 shows (default: the "
                          "reference algorithm's median run by M)")
     ap.add_argument("--no-fig10", action="store_true", help="skip Fig. 10's re-simulation")
+    ap.add_argument("--at", default=None, metavar="K[,K...]",
+                    help="also write anytime.md/.png: every setting after its runs' first K "
+                         "real evaluations (e.g. --at 300,400,697)")
     args = ap.parse_args(argv)
+    try:
+        at = None if args.at is None else anytime.parse_counts(args.at)
+    except ValueError as exc:
+        ap.error(str(exc))
     logging.basicConfig(level=logging.WARNING, format="%(message)s")
     try:
         files = collect(args.sweep_dir, args.out, args.reference_algorithm, args.fig10_run,
-                        fig10=not args.no_fig10)
+                        fig10=not args.no_fig10, at=at)
     except FileNotFoundError as exc:
         print(f"tmopt.collect: error: {exc}", file=sys.stderr)
         return 2

@@ -74,8 +74,7 @@ def write_outputs(problem, algorithm, data: ArchiveData, outdir: Path | None, *,
                   budget: int, wall_time: float, config_hash: str, resumed_from: int,
                   plots: bool, extra_metrics=None) -> dict:
     """Compute the final set, choice and metrics; write them (when ``outdir`` is set)."""
-    pareto = non_dominated_feasible(data.F, data.G, data.failed)
-    best = int(pareto[best_compromise(data.F[pareto])]) if len(pareto) else _least_violating(data)
+    pareto, best = final_choice(data)
     pf = reference_front(problem)
     best_f = best_so_far(data)
     metrics = {
@@ -100,6 +99,15 @@ def write_outputs(problem, algorithm, data: ArchiveData, outdir: Path | None, *,
     if outdir is not None:
         _write_files(problem, data, pareto, metrics, Path(outdir), pf, plots)
     return metrics
+
+
+def final_choice(data: ArchiveData) -> tuple[np.ndarray, int]:
+    """The run's final set and chosen design: the feasible non-dominated designs and the
+    best compromise among them (Eq. 21); with none feasible, an empty set and the least
+    violating design (-1 for an empty archive)."""
+    pareto = non_dominated_feasible(data.F, data.G, data.failed)
+    best = int(pareto[best_compromise(data.F[pareto])]) if len(pareto) else _least_violating(data)
+    return pareto, best
 
 
 def _least_violating(data: ArchiveData) -> int:

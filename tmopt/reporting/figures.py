@@ -221,3 +221,65 @@ def benchmark_boxes(rows: list[dict], key: str, title: str, path: Path) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
+
+
+# ---- anytime ----------------------------------------------------------------------------
+#: Settings that get a panel each in the anytime figure (the rest are lines).
+PANEL_KEYS = ("problem", "scheme", "problem.n_freq")
+
+
+def anytime_curves(rows: list[dict], key: str, path: Path, log_x: bool = False) -> None:
+    """Mean ± std over seeds of ``key`` against evaluations, one line per setting.
+
+    ``rows`` are summary rows whose settings include ``evaluations``; a line is solid
+    where every run of the setting had reached that count and dotted where only some had.
+    ``log_x``: logarithmic evaluation axis (for runs of very different lengths).
+    """
+    panels: dict[tuple, dict[str, list[dict]]] = {}
+    for row in rows:
+        s = dict(row["setting"])
+        k = int(s.pop("evaluations"))
+        panel = tuple((p, s.pop(p)) for p in PANEL_KEYS if p in s)
+        panels.setdefault(panel, {}).setdefault(label(s), []).append({**row, "k": k})
+    n = max(1, len(panels))
+    cols = min(3, n)
+    wide = max(len(lines) for lines in panels.values()) > 6 if panels else False
+    fig, axes = plt.subplots(math.ceil(n / cols), cols, squeeze=False,
+                             figsize=((9 if wide else 5.5) * cols, 4 * math.ceil(n / cols)))
+    ylabel = "M (TM1) of the chosen design" if key == "M_TM1" else key.upper()
+    for ax, (panel, lines) in zip(axes.flat, sorted(panels.items())):
+        colours = plt.get_cmap("tab20" if len(lines) > 10 else "tab10")
+        for i, (name, pts) in enumerate(lines.items()):
+            _anytime_line(ax, sorted(pts, key=lambda r: r["k"]), key, name, colours(i))
+        ax.set_title(", ".join(f"{k}={v}" for k, v in panel) or f"{ylabel}, mean ± std")
+        ax.set_xlabel("real evaluations")
+        ax.set_ylabel(ylabel)
+        if log_x:
+            ax.set_xscale("log")
+            ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+        _log_if_positive(ax)
+        if len(lines) > 6:  # many settings: the legend beside the panel, not over it
+            ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+        else:
+            ax.legend(fontsize=7)
+    for ax in list(axes.flat)[len(panels):]:
+        ax.axis("off")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def _anytime_line(ax, pts: list[dict], key: str, name: str, colour) -> None:
+    pts = [p for p in pts if p["n_complete"] > 0 and math.isfinite(p[key][0])]
+    if not pts:
+        return
+    k = np.array([p["k"] for p in pts])
+    mean = np.array([p[key][0] for p in pts])
+    std = np.nan_to_num(np.array([p[key][1] for p in pts]))
+    full = np.array([p["n_complete"] == p["n_runs"] for p in pts])
+    ax.plot(k[full], mean[full], color=colour, label=name)
+    ax.fill_between(k, mean - std, mean + std, color=colour, alpha=0.1, lw=0)
+    if not full.all():  # some runs stop short of here (unfinished or smaller budget)
+        start = max(0, int(np.argmin(full)) - 1)
+        ax.plot(k[start:], mean[start:], ":", color=colour,
+                label=None if full.any() else name)

@@ -76,12 +76,19 @@ COMMON_METRICS: tuple[Metric, ...] = (
 STIFFNESS_METRICS = (
     Metric("chosen_feasible", "chosen feasible", _chosen_feasible),
     *TABLE3_METRICS, *COMMON_METRICS)
+#: What an archive prefix gives (tmopt.reporting.anytime): no re-simulation, so no
+#: stricter thresholds or final accuracy.
+ANYTIME_STIFFNESS_METRICS = (
+    Metric("chosen_feasible", "chosen feasible", _chosen_feasible),
+    *(m for m in TABLE3_METRICS if m.key in (
+        "convergence_time_TM1", "convergence_accuracy_TM1", "M_TM1")))
 BENCHMARK_METRICS: tuple[Metric, ...] = (
     Metric("has_front", "feasible set found", _has_front),
     Metric("igd", "IGD", _metric("igd"), tested=True),
     Metric("igd_plus", "IGD+", _metric("igd_plus")),
     Metric("hv", "HV", _metric("hv"), lower_is_better=False, tested=True),
     *COMMON_METRICS)
+ANYTIME_BENCHMARK_METRICS = BENCHMARK_METRICS[:4]
 
 
 # ---- summaries ------------------------------------------------------------------------

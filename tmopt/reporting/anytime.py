@@ -1,0 +1,111 @@
+"""Anytime view of a sweep: what each run would report after its first k evaluations.
+
+Expensive optimisation compares algorithms at equal numbers of real evaluations, and a
+sweep's final tables compare each run at its own end. Here every run's archive (complete
+or not: an unfinished run counts up to where it got) is cut after its first ``k`` real
+evaluations, in the order they were made, and the run's final choice is taken on that
+prefix (:func:`tmopt.outputs.final_choice`: the feasible non-dominated set, the best
+compromise of Eq. 21, else the least violating design). Per ``k``:
+
+- stiffness problem: whether that design is feasible, its convergence time (Eq. 18),
+  accuracy (Eq. 19) and M (Eq. 29) of TM1, from the archived objectives (the numbers
+  the optimiser saw; the final tables re-simulate the chosen design with the same noise
+  seed, which gives the same values at the optimisation threshold);
+- benchmark suites: whether a feasible design exists, IGD, IGD+ and HV of the feasible
+  front (:func:`tmopt.outputs.indicator_values`).
+
+Runs that have not reached ``k`` are counted as such (``runs`` = reached / all), never
+extrapolated. The table tests each setting against the reference algorithm at the same
+``k`` (Wilcoxon rank-sum, as the final tables).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from collections.abc import Sequence
+
+from omegaconf import OmegaConf
+
+from tmopt.archive import ArchiveData, read_archive
+from tmopt.build import build_problem
+from tmopt.metrics.identification import metric_m
+from tmopt.outputs import final_choice, indicator_values, reference_front
+from tmopt.reporting.runs import COMPLETE, INCOMPLETE, RunRecord
+
+log = logging.getLogger(__name__)
+
+#: Pseudo-setting key under which the evaluation count k enters a run's settings.
+EVALS_KEY = "evaluations"
+#: The key test mass whose numbers Table 3 reports (paper Sec. 4.4).
+KEY_TM = "TM1"
+
+
+def parse_counts(text: str) -> list[int]:
+    """``"300,400,697"`` -> ``[300, 400, 697]`` (positive integers, sorted, unique)."""
+    try:
+        counts = sorted({int(part) for part in text.split(",") if part.strip()})
+    except ValueError:
+        raise ValueError(f"--at must be comma-separated positive integers, got {text!r}") \
+            from None
+    if not counts or counts[0] < 1:
+        raise ValueError(f"--at must be comma-separated positive integers, got {text!r}")
+    return counts
+
+
+def prefix_values(problem, data: ArchiveData, k: int, front=None) -> dict:
+    """The run's report after its first ``k`` evaluations (``k <= len(data)``)."""
+    head = data.rows(0, k)
+    pareto, best = final_choice(head)
+    chosen = {"feasible": bool(len(pareto))}
+    out: dict = {"chosen": chosen, "pareto_size": int(len(pareto)), "n_evals": k}
+    names = list(getattr(problem, "objective_names", []))
+    t_key, a_key = f"convergence_time_{KEY_TM}", f"convergence_accuracy_{KEY_TM}"
+    if best >= 0 and t_key in names and a_key in names:
+        t, acc = (float(head.F[best, names.index(key)]) for key in (t_key, a_key))
+        out["identification"] = {t_key: t, a_key: acc,
+                                 f"M_{KEY_TM}": metric_m(t, acc, *problem.m_weights)}
+    else:
+        out.update(indicator_values(problem, head.F[pareto], front))
+    return out
+
+
+def anytime_records(run: RunRecord, counts: Sequence[int]) -> list[RunRecord]:
+    """One pseudo-run per ``k`` in ``counts``: the run's report after ``k`` evaluations.
+
+    Each carries ``evaluations = k`` in its configuration (so it groups by ``k``) and is
+    ``complete`` when the run had reached ``k`` (then its metrics are the prefix's),
+    ``incomplete`` otherwise; a run without a readable archive (or problem) reached none
+    of them, so it still counts among the setting's runs.
+    """
+    try:
+        data = read_archive(run.path / "archive.h5")
+        problem = build_problem(OmegaConf.create(run.config))
+    except Exception as exc:  # a missing/corrupt archive or config: counted, not fatal
+        log.warning("anytime: %s has no readable archive (%s)", run.path, exc)
+        return [dataclasses.replace(run, status=INCOMPLETE, metrics=None, n_evals=None,
+                                    config={**run.config, EVALS_KEY: k}) for k in counts]
+    front = None if hasattr(problem, "m_weights") else reference_front(problem)
+    records = []
+    for k in counts:
+        config = {**run.config, EVALS_KEY: k}
+        if k <= len(data):
+            metrics = prefix_values(problem, data, k, front)
+            records.append(dataclasses.replace(run, status=COMPLETE, config=config,
+                                               metrics=metrics, n_evals=k))
+        else:
+            records.append(dataclasses.replace(run, status=INCOMPLETE, config=config,
+                                               metrics=None, n_evals=len(data)))
+    return records
+
+
+def curve_counts(runs: Sequence[RunRecord], counts: Sequence[int], points: int = 40) -> list[int]:
+    """Evaluation counts of the curves: ``points`` even steps up to each distinct run
+    length (so a 697-evaluation run is resolved as finely as a 10 000 one), plus ``counts``."""
+    lengths = {int(r.budget or r.n_evals or 0) for r in runs} - {0}
+    grid = {int(c) for c in counts}
+    for length in lengths:
+        step = max(1, length // points)
+        grid.update(range(step, length + 1, step))
+        grid.add(length)
+    return sorted(grid)
