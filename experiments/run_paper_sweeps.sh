@@ -8,8 +8,8 @@
 #   SCHEME_SEEDS  seeds of the scheme x k sweep, Figs. 8-9 (default 1)
 #   STEPS         which steps, in order, of "table3 schemes table3_bo" (default all three):
 #                 table3 = Table 3 without qLogNEHVI, schemes = Figs. 8-9, table3_bo =
-#                 qLogNEHVI's Table 3 runs (GP + acquisition optimisation every iteration,
-#                 ~30 s per iteration on two loaded cores: hours per run, so it goes last)
+#                 qLogNEHVI's Table 3 runs (GP + acquisition optimisation every iteration:
+#                 hours per run, so it goes last; QLOGNEHVI_MAX_BASELINE, default 64)
 #
 # Environment: LAUNCHER (default local_parallel = Hydra's joblib launcher, 2 processes;
 # basic, submitit_local or cluster also work), N_JOBS (default 2), ALGORITHMS (default:
@@ -63,8 +63,12 @@ for step in $STEPS; do
     table3)  # Table 3: the paper's optimal configuration, scheme B with 3 frequencies
       sweep "${PRESET}_table3" "algorithm=$ALGORITHMS" "seed=range(0,$SEEDS)" ;;
     table3_bo)  # qLogNEHVI (ours) into the same folder; it has no iteration cap of its own,
-      # so under the paper preset it gets the MGSAEA family's 697 evaluations
+      # so under the paper preset it gets the MGSAEA family's 697 evaluations. Its
+      # baseline is capped at QLOGNEHVI_MAX_BASELINE designs (default 64; empty: BoTorch's
+      # pruning only, ~6 h per run here instead of ~1.5 h; docs/results.md "Not finished")
       extra=(); [[ $PRESET == paper ]] && extra=(budget=697)
+      cap=${QLOGNEHVI_MAX_BASELINE-64}
+      [[ -n $cap ]] && extra+=("algorithm.max_baseline=$cap")
       if [[ -f conf/algorithm/qlognehvi.yaml ]]; then
         sweep "${PRESET}_table3" algorithm=qlognehvi "seed=range(0,$SEEDS)" "${extra[@]}"
       fi ;;

@@ -28,6 +28,12 @@ from omegaconf import MISSING, DictConfig, ListConfig, OmegaConf
 GROUPS = ("problem", "algorithm", "surrogate", "scheme", "experiment")
 #: Keys that change how a run is shown or stored, not what it computes.
 RUN_ONLY_KEYS = ("resume", "progress", "plots", "name")
+#: Parameters added after runs were made, with the value that reproduces the earlier
+#: behaviour: at that value they stay out of config_hash, so the archives of earlier runs
+#: (same numbers) still resume and finished runs are still skipped.
+HASH_NEUTRAL_DEFAULTS: dict[tuple[str, str, str], object] = {
+    ("algorithm", "_target_=tmopt.algorithms.qlognehvi.QLogNEHVI", "max_baseline"): None,
+}
 
 
 class ConfigError(ValueError):
@@ -162,5 +168,10 @@ def config_hash(cfg: DictConfig) -> str:
     for key in RUN_ONLY_KEYS:
         data.pop(key, None)
     data.pop("hydra", None)
+    for (group, target, key), default in HASH_NEUTRAL_DEFAULTS.items():
+        node = data.get(group)
+        if isinstance(node, dict) and f"_target_={node.get('_target_')}" == target \
+                and key in node and node[key] == default:
+            node.pop(key)
     blob = json.dumps(data, sort_keys=True, default=str).encode()
     return hashlib.sha256(blob).hexdigest()[:16]

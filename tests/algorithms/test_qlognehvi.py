@@ -164,6 +164,7 @@ def test_seconds_per_iteration_at_300_points_d18():
     ({"kernel": "linear"}, r"kernel must be one of \('rbf', 'matern52'\), got 'linear'"),
     ({"threads": 0}, "threads must be an integer >= 1, got 0"),
     ({"max_iter": -1}, "max_iter must be an integer >= 0, got -1"),
+    ({"max_baseline": 0}, "max_baseline must be an integer >= 1, got 0"),
     ({"ref_point": "ideal"},
      r"ref_point must be one of \('feasible', 'front', 'all'\), got 'ideal'"),
 ])
@@ -220,3 +221,44 @@ def test_a_resume_takes_archived_designs_without_reoptimising_and_ends_identical
     assert resumed.resumed_from == 14 and len(calls) == 2  # only the 2 new iterations
     for field in ("X", "F", "G"):
         assert np.array_equal(getattr(resumed.archive, field), getattr(whole.archive, field))
+
+
+def test_max_baseline_caps_the_designs_the_acquisition_integrates_over(monkeypatch):
+    import tmopt.algorithms.qlognehvi as module
+
+    seen = []
+    real = module.qLogNoisyExpectedHypervolumeImprovement
+
+    def spy(**kwargs):
+        acq = real(**kwargs)
+        seen.append((kwargs["prune_baseline"], len(kwargs["X_baseline"]),
+                     len(acq.X_baseline)))
+        return acq
+
+    monkeypatch.setattr(module, "qLogNoisyExpectedHypervolumeImprovement", spy)
+    problem = PymooBenchmark("mw3", n_var=4)
+    run(QLogNEHVI(n_init=10, max_baseline=3, **FAST), problem, budget=14, seed=1)
+    # 10 and 12 designs observed: pruned by BoTorch to those with a positive probability
+    # of being Pareto optimal, at most the 3 most probable; the cap binds at least once
+    assert len(seen) == 2 and all(not p and n <= 3 for p, n, _ in seen)
+    assert max(n for _, n, _ in seen) == 3
+    seen.clear()
+    run(QLogNEHVI(n_init=10, max_baseline=50, **FAST), problem, budget=12, seed=1)
+    assert [(p, n) for p, n, _ in seen] == [(True, 10)]  # below the cap: BoTorch's pruning
+
+
+def test_max_baseline_left_at_null_keeps_the_hash_of_configs_without_it():
+    from omegaconf import OmegaConf
+
+    from tmopt.config import config_hash
+
+    base = {"seed": 0, "budget": 697, "problem": {"_target_": "x.Problem"},
+            "algorithm": {"_target_": "tmopt.algorithms.qlognehvi.QLogNEHVI", "q": 5}}
+    old = config_hash(OmegaConf.create(base))
+    at_null = {**base, "algorithm": {**base["algorithm"], "max_baseline": None}}
+    capped = {**base, "algorithm": {**base["algorithm"], "max_baseline": 64}}
+    assert config_hash(OmegaConf.create(at_null)) == old  # earlier archives still resume
+    assert config_hash(OmegaConf.create(capped)) != old
+    other = {**base, "algorithm": {"_target_": "x.Other", "max_baseline": None}}
+    assert config_hash(OmegaConf.create(other)) != config_hash(OmegaConf.create(
+        {**base, "algorithm": {"_target_": "x.Other"}}))  # only the listed algorithm
