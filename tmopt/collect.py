@@ -260,7 +260,7 @@ def _mean_m(runs: list[RunRecord], algorithm: str) -> float:
 def _write_benchmarks(runs: list[RunRecord], out: Path, reference: str) -> str:
     keys = _with(setting_keys(runs), ("problem",))
     rows = summarise(group_runs(runs, keys), BENCHMARK_METRICS, reference)
-    rows.sort(key=lambda r: (r["setting"].get("problem", ""), _row_order(r)))
+    rows.sort(key=_setting_order)
     header, body = markdown_rows(rows, BENCHMARK_METRICS, keys, reference)
     write_table(out, "benchmarks", "Benchmark suites: IGD, IGD+ and HV of the final feasible "
                 "non-dominated set", header, body, csv_rows(rows, BENCHMARK_METRICS, keys),
@@ -293,8 +293,6 @@ def _write_anytime_kind(runs: list[RunRecord], out: Path, reference: str, at: li
                         stiffness: bool, stem: str) -> str:
     grid = anytime.curve_counts(runs, at)
     records = [rec for run in runs for rec in anytime.anytime_records(run, grid)]
-    if not records:
-        return f"`{stem}` not written: no readable archive."
     metrics = ANYTIME_STIFFNESS_METRICS if stiffness else ANYTIME_BENCHMARK_METRICS
     keys = [k for k in _with(setting_keys(runs), ("problem",))
             if not (stiffness and k == "problem")] + [anytime.EVALS_KEY]
