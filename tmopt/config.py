@@ -31,8 +31,9 @@ RUN_ONLY_KEYS = ("resume", "progress", "plots", "name")
 #: Parameters added after runs were made, with the value that reproduces the earlier
 #: behaviour: at that value they stay out of config_hash, so the archives of earlier runs
 #: (same numbers) still resume and finished runs are still skipped.
+#: Keyed by (config group, its ``_target_``, parameter).
 HASH_NEUTRAL_DEFAULTS: dict[tuple[str, str, str], object] = {
-    ("algorithm", "_target_=tmopt.algorithms.qlognehvi.QLogNEHVI", "max_baseline"): None,
+    ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "max_baseline"): None,
 }
 
 
@@ -170,7 +171,7 @@ def config_hash(cfg: DictConfig) -> str:
     data.pop("hydra", None)
     for (group, target, key), default in HASH_NEUTRAL_DEFAULTS.items():
         node = data.get(group)
-        if isinstance(node, dict) and f"_target_={node.get('_target_')}" == target \
+        if isinstance(node, dict) and node.get("_target_") == target \
                 and key in node and node[key] == default:
             node.pop(key)
     blob = json.dumps(data, sort_keys=True, default=str).encode()
