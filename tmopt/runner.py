@@ -4,7 +4,8 @@ The runner is the only place that evaluates a problem for real. It writes into t
 folder as it goes (``archive.h5`` after every batch) and, at the end, the final
 non-dominated set, the chosen solution (paper Eq. 21), ``metrics.json`` and plots (see
 :mod:`tmopt.outputs`). Running the same command again in the same folder resumes an
-interrupted run by replay (:mod:`tmopt.problems.evaluator`) and skips a finished one.
+interrupted run by replay (:mod:`tmopt.problems.evaluator`) and skips a finished one;
+an algorithm that checkpoints its costly state (``algorithm_state.pt``) resumes from it.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from tmopt.algorithms.base import Algorithm
+from tmopt.algorithms.base import CHECKPOINT_FILE, Algorithm
 from tmopt.archive import ArchiveData, ArchiveError, EvaluationArchive, read_archive
 from tmopt.problems.base import ExpensiveProblem
 from tmopt.problems.evaluator import Evaluator
@@ -89,6 +90,9 @@ def run_optimisation(
     algorithm.setup(problem, budget=budget, seed=seed)
     if resumed_from:
         algorithm.attach_replay(evaluator.replayed_designs)
+    if outdir is not None:
+        algorithm.attach_checkpoint(outdir / CHECKPOINT_FILE,
+                                    replay.X if replay is not None else None)
     reporter = ProgressReporter(budget, problem.objective_names, enabled=progress)
     t0 = time.perf_counter()
     try:

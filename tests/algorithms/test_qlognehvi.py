@@ -200,27 +200,90 @@ def test_cli_run(tmp_path):
     assert metrics["algorithm"] == "qlognehvi" and metrics["n_evals"] == 12
 
 
-def test_a_resume_takes_archived_designs_without_reoptimising_and_ends_identical(
-        tmp_path, monkeypatch):
-    import tmopt.algorithms.qlognehvi as module
+def _go(outdir, budget, seed=2):
+    return run_optimisation(PymooBenchmark("mw3", n_var=4), QLogNEHVI(n_init=8, **FAST),
+                            budget=budget, seed=seed, outdir=outdir, config_hash="h",
+                            resume=True, progress=False, plots=False)
 
-    problem = PymooBenchmark("mw3", n_var=4)
 
-    def go(outdir, budget):
-        return run_optimisation(problem, QLogNEHVI(n_init=8, **FAST), budget=budget, seed=2,
-                                outdir=outdir, config_hash="h", resume=True, progress=False,
-                                plots=False)
-
-    whole = go(tmp_path / "whole", 18)  # 8 + 5 iterations of 2
-    go(tmp_path / "killed", 14)  # the same run stopped after 3 iterations ...
-    (tmp_path / "killed" / "metrics.json").unlink()  # ... as if killed before its end
+def _count_calls(monkeypatch, owner, name):
     calls = []
-    real = module.optimize_acqf
-    monkeypatch.setattr(module, "optimize_acqf", lambda *a, **k: calls.append(1) or real(*a, **k))
-    resumed = go(tmp_path / "killed", 18)
-    assert resumed.resumed_from == 14 and len(calls) == 2  # only the 2 new iterations
+    real = getattr(owner, name)
+    monkeypatch.setattr(owner, name, lambda *a, **k: calls.append(1) or real(*a, **k))
+    return calls
+
+
+@pytest.fixture(scope="module")
+def whole(tmp_path_factory):
+    """The uninterrupted run that every resumed one must equal: 8 + 5 iterations of 2."""
+    return _go(tmp_path_factory.mktemp("whole"), 18)
+
+
+def _assert_same_archive(a, b):
     for field in ("X", "F", "G"):
-        assert np.array_equal(getattr(resumed.archive, field), getattr(whole.archive, field))
+        assert np.array_equal(getattr(a.archive, field), getattr(b.archive, field))
+
+
+def test_a_resume_takes_archived_designs_and_checkpointed_gps_and_ends_identical(
+        tmp_path, monkeypatch, whole):
+    import tmopt.algorithms.qlognehvi as module
+    from tmopt.surrogates.gp import GPSurrogate
+
+    _go(tmp_path / "killed", 14)  # the same run stopped after 3 iterations ...
+    (tmp_path / "killed" / "metrics.json").unlink()  # ... as if killed before its end
+    acq = _count_calls(monkeypatch, module, "optimize_acqf")
+    fits = _count_calls(monkeypatch, GPSurrogate, "fit")
+    restores = _count_calls(monkeypatch, GPSurrogate, "restore")
+    resumed = _go(tmp_path / "killed", 18)
+    # only the 2 new iterations optimise and fit; iteration 3's GPs come from the checkpoint
+    assert resumed.resumed_from == 14 and len(acq) == 2 and len(fits) == 2
+    assert len(restores) == 1
+    _assert_same_archive(resumed, whole)
+
+
+def test_a_run_killed_between_its_fit_and_the_evaluations_resumes_identical(
+        tmp_path, monkeypatch, whole):
+    from tmopt.problems.evaluator import Evaluator
+    from tmopt.surrogates.gp import GPSurrogate
+
+    real = Evaluator.evaluate
+    batches = []
+
+    def killed_at_the_fifth_batch(self, X):
+        batches.append(1)
+        if len(batches) == 5:  # iteration 4 fitted (and checkpointed), not evaluated
+            raise KeyboardInterrupt
+        return real(self, X)
+
+    monkeypatch.setattr(Evaluator, "evaluate", killed_at_the_fifth_batch)
+    with pytest.raises(KeyboardInterrupt):
+        _go(tmp_path / "killed", 18)
+    monkeypatch.setattr(Evaluator, "evaluate", real)
+    fits = _count_calls(monkeypatch, GPSurrogate, "fit")
+    resumed = _go(tmp_path / "killed", 18)
+    assert resumed.resumed_from == 14 and len(fits) == 1  # iteration 5 only
+    _assert_same_archive(resumed, whole)
+
+
+@pytest.mark.parametrize("damage", ["another seed", "garbage"])
+def test_a_checkpoint_of_another_run_or_damaged_is_ignored_and_refitted(
+        tmp_path, monkeypatch, caplog, whole, damage):
+    from tmopt.algorithms.base import CHECKPOINT_FILE
+    from tmopt.surrogates.gp import GPSurrogate
+
+    _go(tmp_path / "killed", 14)
+    (tmp_path / "killed" / "metrics.json").unlink()
+    state = tmp_path / "killed" / CHECKPOINT_FILE
+    if damage == "garbage":
+        state.write_bytes(b"not a checkpoint")
+    else:
+        _go(tmp_path / "other", 10, seed=3)
+        state.write_bytes((tmp_path / "other" / CHECKPOINT_FILE).read_bytes())
+    fits = _count_calls(monkeypatch, GPSurrogate, "fit")
+    resumed = _go(tmp_path / "killed", 18)
+    assert len(fits) == 5  # 3 replayed iterations refitted, then 2 new ones
+    assert "ignoring" in caplog.text and str(state) in caplog.text
+    _assert_same_archive(resumed, whole)
 
 
 def test_max_baseline_caps_the_designs_the_acquisition_integrates_over(monkeypatch):

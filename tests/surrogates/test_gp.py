@@ -130,6 +130,36 @@ def test_refit_every_keeps_hyperparameters_between_optimisations(smooth3):
     assert model.model.train_inputs[0].shape[-2] == len(X) - 3
 
 
+@pytest.mark.parametrize("mode", ["per_output", "model_list"])
+def test_restore_rebuilds_the_fit_and_its_warm_start_exactly(smooth3, mode):
+    """A checkpointed fit, restored elsewhere, predicts and warm-starts the next fit alike."""
+    X, Y, f = smooth3
+    more = np.random.default_rng(5).uniform(-1, 2, size=(6, 4))
+    X2, Y2 = np.vstack([X, more]), np.vstack([Y, f(more)])
+    Xq = np.random.default_rng(6).uniform(-1, 2, size=(9, 4))
+    original = GPSurrogate(fit_mode=mode).fit(X[:30], Y[:30]).fit(X, Y)
+    state = original.state()
+    restored = GPSurrogate(fit_mode=mode).restore(X, Y, state)
+    for a, b in zip(original.predict(Xq), restored.predict(Xq)):
+        assert np.array_equal(a, b)
+    assert restored.fit_info == original.fit_info
+    original.fit(X2, Y2)  # the next fit, warm-started from the checkpointed one
+    restored.fit(X2, Y2)
+    assert restored.fit_info["warm_started"]
+    assert restored.fit_info["iterations"] == original.fit_info["iterations"]
+    for a, b in zip(original.predict(Xq), restored.predict(Xq)):
+        assert np.array_equal(a, b)
+
+
+def test_restore_refuses_a_state_of_another_shape_or_no_fit(smooth3):
+    X, Y, _ = smooth3
+    state = GPSurrogate().fit(X, Y).state()
+    with pytest.raises(SurrogateError, match="does not fit this model"):
+        GPSurrogate().restore(X[:, :3], Y, state)
+    with pytest.raises(SurrogateError, match="not fitted"):
+        GPSurrogate().state()
+
+
 def test_warm_start_skipped_when_shapes_change(smooth3):
     X, Y, _ = smooth3
     model = GPSurrogate().fit(X, Y)

@@ -7,19 +7,30 @@ models) happens inside ``ask``/``tell``.
 
 Subclasses implement ``_setup``, ``_infill`` (pymoo's name for proposing designs) and
 ``_advance`` (updating the state with the evaluated batch), and may override
-``initial_sample_size`` and ``info``.
+``initial_sample_size`` and ``info``. An algorithm whose state is costly to rebuild on
+resume may checkpoint it (:meth:`Algorithm._write_checkpoint`, :attr:`Algorithm.resume_state`).
 """
 
 from __future__ import annotations
 
+import hashlib
+import io
+import logging
 import random
 from abc import ABC, abstractmethod
+from pathlib import Path
 
 import numpy as np
 import torch
 
+from tmopt.archive import atomic_write_bytes
 from tmopt.problems.base import ExpensiveProblem
 from tmopt.problems.evaluator import EvaluatedBatch
+
+log = logging.getLogger(__name__)
+
+#: The run folder's algorithm checkpoint, beside ``archive.h5``.
+CHECKPOINT_FILE = "algorithm_state.pt"
 
 
 class AlgorithmConfigError(ValueError):
@@ -60,6 +71,9 @@ class Algorithm(ABC):
         self.n_gen = 0
         self.n_evals = 0
         self._replay_source = None
+        self._checkpoint_path: Path | None = None
+        self._told = hashlib.sha256()  # digest of every design told so far, in order
+        self.resume_state: dict | None = None
         self._setup()
 
     def attach_replay(self, source) -> None:
@@ -75,6 +89,29 @@ class Algorithm(ABC):
         """
         return None if self._replay_source is None else self._replay_source(n)
 
+    def attach_checkpoint(self, path: str | Path, archived_X: np.ndarray | None = None) -> None:
+        """Keep a checkpoint at ``path``; on a resume, offer the one there if it fits.
+
+        A checkpoint records how many evaluations the algorithm had been told and a digest
+        of their designs. It becomes :attr:`resume_state` only if ``archived_X`` (the
+        designs of the archive being replayed) begins with exactly those designs, so one
+        left by another run, seed or configuration is never used.
+        """
+        self._checkpoint_path = Path(path)
+        self.resume_state = None
+        if archived_X is not None and self._checkpoint_path.exists():
+            self.resume_state = _matching_checkpoint(self._checkpoint_path, self.name,
+                                                     np.asarray(archived_X, dtype=float))
+
+    def _write_checkpoint(self, payload: dict) -> None:
+        """Save ``payload`` (tensors, numbers, strings, lists, dicts) atomically, if attached."""
+        if self._checkpoint_path is None:
+            return
+        buffer = io.BytesIO()
+        torch.save({"algorithm": self.name, "n_evals": self.n_evals,
+                    "digest": self._told.hexdigest(), "payload": payload}, buffer)
+        atomic_write_bytes(self._checkpoint_path, buffer.getvalue())
+
     def ask(self) -> np.ndarray:
         """Designs (n, n_var) to evaluate for real next."""
         X = np.asarray(self._infill(), dtype=float)
@@ -83,6 +120,7 @@ class Algorithm(ABC):
     def tell(self, batch: EvaluatedBatch) -> None:
         """Feed back real evaluations of (a prefix of) the last ``ask``."""
         self.n_evals += len(batch.X)
+        self._told.update(_design_bytes(batch.X))
         self._advance(batch)
         self.n_gen += 1
 
@@ -117,6 +155,28 @@ class Algorithm(ABC):
     @abstractmethod
     def _advance(self, batch: EvaluatedBatch) -> None:
         """Update the state with evaluated designs."""
+
+
+def _design_bytes(X: np.ndarray) -> bytes:
+    return np.ascontiguousarray(X, dtype=np.float64).tobytes()
+
+
+def _matching_checkpoint(path: Path, name: str, archived_X: np.ndarray) -> dict | None:
+    """The payload at ``path`` if it was written by ``name`` after a prefix of ``archived_X``."""
+    try:
+        saved = torch.load(io.BytesIO(path.read_bytes()), weights_only=True)
+        n = int(saved["n_evals"])
+        fits = saved["algorithm"] == name and n <= len(archived_X) and saved["digest"] == \
+            hashlib.sha256(_design_bytes(archived_X[:n])).hexdigest()
+    except Exception as exc:  # noqa: BLE001 - a damaged checkpoint only costs time
+        log.warning("ignoring the unreadable checkpoint %s (%s); the resume recomputes "
+                    "the algorithm's state", path, exc)
+        return None
+    if not fits:
+        log.warning("ignoring the checkpoint %s: it belongs to another run than the archive",
+                    path)
+        return None
+    return saved["payload"]
 
 
 def seed_everything(seed: int) -> None:

@@ -166,6 +166,30 @@ class GPSurrogate(Surrogate):
             self._fit(X, Y)
         return self
 
+    def state(self) -> dict:
+        """What the last fit left: enough for :meth:`restore` to rebuild it exactly."""
+        if self._model is None:
+            raise SurrogateError("no GP state to save: the model is not fitted or the last "
+                                 "fit fell back to the RBF network")
+        return {"hyperparameters": self._hyperparameters(), "fit_info": dict(self.fit_info),
+                "warm": self._warm, "since_opt": self._since_opt}
+
+    def restore(self, X: np.ndarray, Y: np.ndarray, state: dict) -> GPSurrogate:
+        """The model that :meth:`fit` made of (X, Y), from its :meth:`state`, without fitting.
+
+        Also restores the warm start and refit counter, so the next :meth:`fit` gives what
+        it would have given after the original fit (a resumed run's checkpoint).
+        """
+        X, Y = self.check_training_data(X, Y)
+        Xt, Yt = torch.as_tensor(X, dtype=_DTYPE), torch.as_tensor(Y, dtype=_DTYPE)
+        self._model, self._caches, self._fallback, self._d = None, [], None, None
+        with torch_threads(self.num_threads):
+            self._fit_stage(Xt, Yt, float(state["fit_info"]["noise_floor"]), optimise=False,
+                            warm=False, start=state["hyperparameters"])
+        self.fit_info = dict(state["fit_info"])
+        self._warm, self._since_opt, self._d = state["warm"], int(state["since_opt"]), X.shape[1]
+        return self
+
     def _fit(self, X: np.ndarray, Y: np.ndarray) -> None:
         start = time.perf_counter()
         self._model, self._caches, self._fallback, self._d = None, [], None, None
@@ -230,7 +254,7 @@ class GPSurrogate(Surrogate):
 
     # ---- fitting -----------------------------------------------------------------------
     def _fit_stage(self, X: torch.Tensor, Y: torch.Tensor, floor: float, optimise: bool,
-                   warm: bool) -> None:
+                   warm: bool, start: dict[str, torch.Tensor] | None = None) -> None:
         with gpytorch.settings.max_cholesky_size(_CHOLESKY_LIMIT), warnings.catch_warnings():
             # Expected on degenerate data (added jitter, unscaled-input checks) or a capped
             # L-BFGS-B run; real failures raise and are logged by the fallback chain.
@@ -238,6 +262,9 @@ class GPSurrogate(Surrogate):
                 warnings.simplefilter("ignore", category)
             model = self._build(X, Y, floor)
             warmed = warm and self._load_warm(model)
+            if start is not None and not self._load_hyperparameters(model, start):
+                raise SurrogateError("the saved GP state does not fit this model (another "
+                                     "kernel, dimension or number of outputs)")
             self.fit_info = {"warm_started": warmed, "iterations": []}
             if optimise and self.fit_mode == "per_output" and Y.shape[1] > 1:
                 self._optimise_per_output(model, X, Y, floor)
@@ -310,13 +337,16 @@ class GPSurrogate(Surrogate):
                 if _is_raw(k)}
 
     def _load_warm(self, model) -> bool:
-        if self._warm is None:
-            return False
+        return self._warm is not None and self._load_hyperparameters(model, self._warm)
+
+    @staticmethod
+    def _load_hyperparameters(model, values: dict[str, torch.Tensor]) -> bool:
+        """Load raw hyperparameters if they match the model's (else False: start cold)."""
         state = model.state_dict()
-        if set(self._warm) != {k for k in state if _is_raw(k)} \
-                or any(state[k].shape != v.shape for k, v in self._warm.items()):
-            return False  # different d, m, kernel or layout: start cold
-        model.load_state_dict(self._warm, strict=False)
+        if set(values) != {k for k in state if _is_raw(k)} \
+                or any(state[k].shape != v.shape for k, v in values.items()):
+            return False  # different d, m, kernel or layout
+        model.load_state_dict(values, strict=False)
         return True
 
     def _fit_rbf(self, X: np.ndarray, Y: np.ndarray) -> None:
