@@ -6,8 +6,9 @@ Copies the run folder's ``algorithm_state.pt`` and ``archive.h5`` (in that order
 run still going cannot leave a checkpoint newer than the copied archive) into a temporary
 folder twice, deletes the checkpoint from one copy, and resumes both with the budget
 set to the archive's length: each replays every archived evaluation and stops, so the
-time is the catch-up alone (the problem is never called). Prints both times, their ratio,
-and whether both replays left the same archive.
+time is the catch-up alone (the problem is never called). Prints both times and their
+ratio. (That the two end in the same state is what tests/algorithms/test_qlognehvi.py
+checks, by continuing both past the archive.)
 """
 
 from __future__ import annotations
@@ -19,7 +20,6 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
 from omegaconf import OmegaConf
 
 from tmopt.algorithms.base import CHECKPOINT_FILE
@@ -58,14 +58,12 @@ def main() -> None:
         for copy in copies:
             shutil.copy2(args.run / ARCHIVE_FILE, copy / ARCHIVE_FILE)
         t_with, with_ckpt = catch_up(args.run, copies[0], keep_checkpoint=True)
-        t_without, without = catch_up(args.run, copies[1], keep_checkpoint=False)
-    same = all(np.array_equal(getattr(with_ckpt.archive, f), getattr(without.archive, f))
-               for f in ("X", "F", "G"))
+        t_without, _ = catch_up(args.run, copies[1], keep_checkpoint=False)
     n = len(with_ckpt.archive.X)
     print(f"catch-up of {n} archived evaluations ({args.run.name})")
     print(f"  with the checkpoint:    {t_with:8.2f} s")
     print(f"  refitting (reference):  {t_without:8.2f} s")
-    print(f"  ratio refit / checkpoint: {t_without / t_with:.1f}x; same archive: {same}")
+    print(f"  ratio refit / checkpoint: {t_without / t_with:.1f}x")
 
 
 if __name__ == "__main__":
