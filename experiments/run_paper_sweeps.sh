@@ -65,7 +65,7 @@ for step in $STEPS; do
     table3_bo)  # qLogNEHVI (ours) into the same folder; it has no iteration cap of its own,
       # so under the paper preset it gets the MGSAEA family's 697 evaluations. Its
       # baseline is capped at QLOGNEHVI_MAX_BASELINE designs (default 64; empty: BoTorch's
-      # pruning only, ~6 h per run here instead of ~1.5 h; docs/results.md "Not finished")
+      # pruning only, ~6 h per run here instead of ~2.4 h; docs/results.md "qLogNEHVI's cost")
       extra=(); [[ $PRESET == paper ]] && extra=(budget=697)
       cap=${QLOGNEHVI_MAX_BASELINE-64}
       [[ -n $cap ]] && extra+=("algorithm.max_baseline=$cap")
