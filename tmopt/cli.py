@@ -26,6 +26,7 @@ from omegaconf import DictConfig, OmegaConf
 from tmopt.archive import ArchiveError, atomic_write_text
 from tmopt.build import build
 from tmopt.config import GROUPS, ConfigError, config_hash, register_configs
+from tmopt.run_lock import RunFolderBusy, hold_run_lock
 
 log = logging.getLogger("tmopt")
 
@@ -152,11 +153,17 @@ def run_from_config(cfg: DictConfig) -> dict | None:
         atomic_write_text(outdir / "config.yaml", OmegaConf.to_yaml(cfg, resolve=True))
         from tmopt.runner import run_optimisation
 
-        result = run_optimisation(
-            problem, algorithm, budget=cfg.budget, seed=cfg.seed, outdir=outdir,
-            config_hash=config_hash(cfg), resume=cfg.resume, progress=cfg.progress,
-            plots=cfg.plots, extra_metrics=getattr(problem, "extra_metrics", None),
-            eval_time_limit=cfg.eval_time_limit)
+        with hold_run_lock(outdir):  # one process per run folder (tmopt/run_lock.py)
+            result = run_optimisation(
+                problem, algorithm, budget=cfg.budget, seed=cfg.seed, outdir=outdir,
+                config_hash=config_hash(cfg), resume=cfg.resume, progress=cfg.progress,
+                plots=cfg.plots, extra_metrics=getattr(problem, "extra_metrics", None),
+                eval_time_limit=cfg.eval_time_limit)
+    except RunFolderBusy as exc:  # not a failure of this run: leave its folder alone
+        log.error("tmopt: not run: %s", exc)
+        if not multirun:
+            sys.exit(1)
+        return None
     except (ConfigError, ArchiveError, OSError) as exc:
         _record_failure(outdir, exc)
         log.error("tmopt: error: %s", exc)
