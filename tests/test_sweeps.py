@@ -130,11 +130,16 @@ def test_both_sweeps_through_basic_and_joblib_then_collect_lists_failed_and_inco
     assert (early[("nsga3", "20")]["n_runs"], early[("nsga3", "20")]["n_complete"]) == (
         "2", "1")
 
-    # the same command through the other launcher (one worker: only resume/skip is checked)
-    _sweep(TABLE3, sweep, "local_parallel", "hydra.launcher.n_jobs=1")
-    assert "resuming from 40" in (unfinished / "tmopt.log").read_text()
+    # the same command through the other launcher (one worker: only resume/skip is checked);
+    # the finished runs are not even launched (tmopt/sweep_resume.py), the failed one is,
+    # to say again why it fails
     done = sweep / _folder("algorithm=nsga3", "problem=stiffness", "seed=0")
-    assert "already complete" in (done / "tmopt.log").read_text()
+    done_log = (done / "tmopt.log").read_text()
+    out = _sweep(TABLE3, sweep, "local_parallel", "hydra.launcher.n_jobs=1")
+    assert ("tmopt sweep: 8 runs: 6 skipped (complete), 1 resumed (40 archived evaluations), "
+            "1 blocked (launched to report why), 0 started; launching 2") in out
+    assert "resuming from 40" in (unfinished / "tmopt.log").read_text()
+    assert (done / "tmopt.log").read_text() == done_log
 
 
 @pytest.mark.slow
