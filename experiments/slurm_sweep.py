@@ -15,8 +15,12 @@ Run by ``experiments/slurm_sweep.sh --quick`` with a SLURM cluster up
    folder: every archive must equal its SLURM twin bit for bit (X, F, G);
 5. ``python -m tmopt.collect`` on the SLURM sweep.
 
-Ends with ``slurm: jobs=N completed=N cancelled_then_resumed=K identical_to_local=B``;
-exit status 0 only when all of it holds.
+Ends with ``slurm: jobs=N completed=N cancelled_then_resumed=K identical_to_local=B``.
+
+``--time-limit`` (before the sweep, or alone) runs one run past its SLURM time limit: it
+must be requeued by submitit, resume from its archive and end identical to the same run
+through the basic launcher (``slurm: time_limit requeued=R ...``; see time_limit_check).
+Exit status 0 only when everything asked holds.
 """
 
 from __future__ import annotations
@@ -35,11 +39,13 @@ sys.path.insert(0, str(REPO))
 
 from tmopt.archive import ArchiveError, read_archive  # noqa: E402
 from tmopt.reporting.runs import discover_runs  # noqa: E402
-from tmopt.run_lock import lock_holder  # noqa: E402
+from tmopt.run_lock import LOCK_FILE, lock_holder  # noqa: E402
 
 N_INIT = 40  # first batch of the MGSAEA family (LHS sample); the job is cancelled after it
 QUICK = {"budget": 300, "seeds": 3}
 TARGET = {"problem": "stiffness", "algorithm": "mgsaea_ipc", "seed": 1}
+TIME_LIMIT_RUN = ["problem=faulty", "problem.batch_delay=1.0", "algorithm=nsga2",
+                  "algorithm.pop_size=10", "budget=300", "seed=0", "plots=false"]
 THREADS = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
            "OPENBLAS_NUM_THREADS": "1", "PYTHONUNBUFFERED": "1"}
 
@@ -138,37 +144,13 @@ def summary_of(log: Path) -> str:
     return lines[-1] if lines else ""
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--quick", action="store_true", help="the small sweep of the docs "
-                    f"(budget {QUICK['budget']}, {QUICK['seeds']} seeds)")
-    ap.add_argument("--budget", type=int, help="real evaluations per run (> 80)")
-    ap.add_argument("--seeds", type=int, help="seeds 0..N-1 (N >= 2)")
-    ap.add_argument("--out", type=Path, default=REPO / "multirun",
-                    help="parent of the two sweep folders slurm_quick, slurm_quick_local")
-    ap.add_argument("--timeout-min", type=int, default=30, help="SLURM time limit per job")
-    args = ap.parse_args(argv)
-    if not args.quick and args.budget is None:
-        ap.error("say --quick (or give --budget and --seeds)")
-    budget = args.budget or QUICK["budget"]
-    seeds = args.seeds or QUICK["seeds"]
-    if budget <= 2 * N_INIT:
-        ap.error(f"--budget must be > {2 * N_INIT}: the cancel must land between the first "
-                 f"batch ({N_INIT}) and the end")
-    if seeds < 2:
-        ap.error("--seeds must be >= 2 (the cancelled run is seed 1)")
-    problem = cluster_is_up()
-    if problem:
-        fail(f"{problem}; start a cluster first (on this machine: sudo "
-             "experiments/slurm_local.sh up)")
-
-    out = args.out.resolve()
+def sweep_check(out: Path, budget: int, seeds: int, timeout_min: int) -> bool:
+    """Steps 1-5 of the module doc; prints the ``slurm: jobs=...`` line."""
     cluster_dir, local_dir = out / "slurm_quick", out / "slurm_quick_local"
     for folder in (cluster_dir, local_dir):
         shutil.rmtree(folder, ignore_errors=True)
-    out.mkdir(parents=True, exist_ok=True)
     overrides = sweep_overrides(budget, seeds)
-    cluster_cmd = [*overrides, *cluster_overrides(args.timeout_min),
+    cluster_cmd = [*overrides, *cluster_overrides(timeout_min),
                    f"hydra.sweep.dir={cluster_dir}"]
     n_runs = 2 * 2 * seeds
     t0 = time.time()
@@ -176,10 +158,10 @@ def main(argv: list[str] | None = None) -> int:
     # 1-2. the sweep through SLURM; cancel the target job after its first batch
     say(f"sweep 1: {n_runs} runs through SLURM into {cluster_dir}")
     first = tmopt(cluster_cmd, out / "slurm_quick.sweep1.log", wait=False)
-    target = wait_until(lambda: find_run(cluster_dir, **TARGET), args.timeout_min * 60,
+    target = wait_until(lambda: find_run(cluster_dir, **TARGET), timeout_min * 60,
                         "the run folder of " + ", ".join(f"{k}={v}" for k, v in TARGET.items()))
     wait_until(lambda: rows(target / "archive.h5") >= N_INIT or first.poll() is not None,
-               timeout=args.timeout_min * 60, what=f"the first batch of {target.name}")
+               timeout=timeout_min * 60, what=f"the first batch of {target.name}")
     holder = lock_holder(target)
     if first.poll() is not None or not holder or not holder.get("slurm_job"):
         fail(f"could not catch {target.name} running (sweep 1 ended with {first.returncode}; "
@@ -190,7 +172,7 @@ def main(argv: list[str] | None = None) -> int:
     say(f"scancel {job} ({target.name}) with {at_cancel}/{budget} evaluations archived")
     first.wait()
     say(f"sweep 1 ended with exit status {first.returncode} (a job of it was cancelled)")
-    wait_until(queue_empty, timeout=args.timeout_min * 60, what="the queue to empty")
+    wait_until(queue_empty, timeout=timeout_min * 60, what="the queue to empty")
     killed = read_archive(target / "archive.h5")
     state = wait_until(lambda: job_state(job) != "UNKNOWN" and job_state(job), 60,
                        f"sacct to record job {job}")
@@ -251,6 +233,84 @@ def main(argv: list[str] | None = None) -> int:
     print(f"slurm: jobs={len(runs)} completed={completed} "
           f"cancelled_then_resumed={cancelled_then_resumed} identical_to_local={identical}",
           flush=True)
+    return ok
+
+
+def time_limit_check(out: Path) -> bool:
+    """A run longer than its SLURM time limit: requeued by submitit, resumed, finished.
+
+    The run (the ``faulty`` test problem, 1 s of sleep per batch of 10: 30 s of work that
+    leaves the CPU idle) gets a 1 min limit and USR2 30 s before it, so its first instance
+    is requeued after ~30 s (``max_num_timeout`` of conf/hydra/launcher/cluster.yaml);
+    SLURM holds a requeued job ~2 min before it starts again, and the next instance
+    resumes from the archive. Its archive must equal that of the same run through the
+    basic launcher (run meanwhile). Prints ``slurm: time_limit requeued=R ...``.
+    """
+    cluster_dir, local_dir = out / "slurm_time_limit", out / "slurm_time_limit_local"
+    for folder in (cluster_dir, local_dir):
+        shutil.rmtree(folder, ignore_errors=True)
+    say(f"time limit: one run of 30 s under a 1 min limit (USR2 at 30 s) into {cluster_dir}")
+    cluster = tmopt([*TIME_LIMIT_RUN, "hydra/launcher=cluster", "hydra.launcher.cpus_per_task=1",
+                     "hydra.launcher.mem_gb=2", "hydra.launcher.timeout_min=1",
+                     "hydra.launcher.signal_delay_s=30", f"hydra.sweep.dir={cluster_dir}"],
+                    out / "slurm_time_limit.log", wait=False)
+    local = tmopt([*TIME_LIMIT_RUN, f"hydra.sweep.dir={local_dir}"],
+                  out / "slurm_time_limit.local.log")
+    cluster.wait()
+    run, twin = find_run(cluster_dir, seed=0), find_run(local_dir, seed=0)
+    if run is None or twin is None or not (run / LOCK_FILE).exists():
+        say(f"time limit: no run folder (exit {cluster.returncode}, {local.returncode}; see "
+            f"{out / 'slurm_time_limit.log'})")
+        return False
+    job = json.loads((run / LOCK_FILE).read_text()).get("slurm_job")  # its last holder
+    states = slurm("sacct", "-D", "-X", "-n", "-P", "-o", "State", "-j", job).split()
+    metrics = json.loads((run / "metrics.json").read_text()) \
+        if (run / "metrics.json").exists() else {}
+    identical = same_bits(read_archive(run / "archive.h5"), read_archive(twin / "archive.h5"))
+    requeued = states.count("REQUEUED")
+    completed = metrics.get("status") == "complete" and states[-1:] == ["COMPLETED"]
+    say(f"time limit: job {job} went {' -> '.join(states)}; the run resumed from "
+        f"{metrics.get('resumed_from')} archived evaluations")
+    print(f"slurm: time_limit requeued={requeued} completed={completed} "
+          f"resumed_from={metrics.get('resumed_from')} identical_to_local={identical}",
+          flush=True)
+    return (cluster.returncode == 0 and requeued >= 1 and completed
+            and (metrics.get("resumed_from") or 0) > 0 and identical)
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="the sweep with a cancelled job "
+                    f"(budget {QUICK['budget']}, {QUICK['seeds']} seeds; ~4 min on 2 cores)")
+    ap.add_argument("--time-limit", action="store_true", help="a run that reaches its "
+                    "SLURM time limit, requeued by submitit (~4 min, mostly waiting)")
+    ap.add_argument("--budget", type=int, help="real evaluations per run of the sweep (> 80)")
+    ap.add_argument("--seeds", type=int, help="seeds 0..N-1 of the sweep (N >= 2)")
+    ap.add_argument("--out", type=Path, default=REPO / "multirun",
+                    help="parent of the sweep folders (slurm_quick, slurm_quick_local, ...)")
+    ap.add_argument("--timeout-min", type=int, default=30, help="SLURM time limit per job "
+                    "of the sweep")
+    args = ap.parse_args(argv)
+    sweep = args.quick or args.budget is not None or args.seeds is not None
+    if not (sweep or args.time_limit):
+        ap.error("say --quick and/or --time-limit")
+    budget = args.budget or QUICK["budget"]
+    seeds = args.seeds or QUICK["seeds"]
+    if budget <= 2 * N_INIT:
+        ap.error(f"--budget must be > {2 * N_INIT}: the cancel must land between the first "
+                 f"batch ({N_INIT}) and the end")
+    if seeds < 2:
+        ap.error("--seeds must be >= 2 (the cancelled run is seed 1)")
+    problem = cluster_is_up()
+    if problem:
+        fail(f"{problem}; start a cluster first (on this machine: sudo "
+             "experiments/slurm_local.sh up)")
+    out = args.out.resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    ok = True
+    if args.time_limit:
+        ok &= time_limit_check(out)
+    if sweep:
+        ok &= sweep_check(out, budget, seeds, args.timeout_min)
     return 0 if ok else 1
 
 

@@ -6,7 +6,8 @@
 #   experiments/slurm_sweep.sh --quick      # ends: slurm: jobs=12 completed=12 ...
 #   sudo experiments/slurm_local.sh down
 #
-# Options (after --quick or instead of it): --budget N --seeds N --out DIR --timeout-min N.
+# --time-limit: also a run past its SLURM time limit, requeued and resumed (~4 min).
+# Other options: --budget N --seeds N --out DIR --timeout-min N (--help).
 # Uses the repository's .venv when there is one, else python3.
 set -euo pipefail
 cd "$(dirname "$0")/.."
