@@ -154,3 +154,7 @@ def test_submitit_local_launcher_writes_the_same_run_folders(tmp_path):
     assert (sweep / ".submitit").is_dir()  # submitit's own logs, which collect skips
     assert {r.name for r in discover_runs(sweep)} == {
         _folder("algorithm=nsga2", "seed=0"), _folder("algorithm=nsga2", "seed=1")}
+    again = _sweep(["algorithm=nsga2", "seed=0,1"], sweep, "submitit_local",
+                   "hydra.launcher.timeout_min=10")
+    assert ("tmopt sweep: 2 runs: 2 skipped (complete), 0 resumed (0 archived evaluations), "
+            "0 started; launching 0") in again
