@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tmopt.mismatch.recording import read_recording
+from tmopt.physics.recording import read_recording
 from tmopt.simulate import Settings, main, run, summary
 
 

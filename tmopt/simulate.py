@@ -21,9 +21,9 @@ from pathlib import Path
 import numpy as np
 
 from tmopt.mismatch.generate import Settings, excitation, simulation_config
-from tmopt.mismatch.recording import recording_from_simulation, write_recording
 from tmopt.physics import objectives
 from tmopt.physics.geometry import Geometry
+from tmopt.physics.recording import recording_from_simulation, write_recording
 from tmopt.physics.simulator import SimulationResult, simulate
 
 PARAMETERS = {"k1xx": 0, "k2xx": 1}

@@ -31,9 +31,9 @@ from tmopt.mismatch.injection import (
     coloured_noise,
     glitch_interval_average,
 )
-from tmopt.mismatch.recording import REQUIRED_CHANNELS, ROTATION_CHANNELS, read_recording
 from tmopt.physics.control import closed_loop_poles
 from tmopt.physics.geometry import Geometry
+from tmopt.physics.recording import REQUIRED_CHANNELS, ROTATION_CHANNELS, read_recording
 
 SHORT = {"duration": 300.0}
 

@@ -133,7 +133,7 @@ def _longest_valid(rec) -> tuple[slice, list[str]]:
 
 
 def data_from_recording(rec) -> Data:
-    """A validated :class:`~tmopt.mismatch.recording.Recording` -> :class:`Data`.
+    """A validated :class:`~tmopt.physics.recording.Recording` -> :class:`Data`.
 
     Gaps (NaN samples) are not filled: the longest valid segment is analysed and a note
     says so (the kinematic check needs consecutive samples).

@@ -27,7 +27,9 @@ from typing import Any
 import numpy as np
 
 from tmopt.mismatch.injection import AXES, EFFECT_NAMES, EFFECTS, Builder, Injection
-from tmopt.mismatch.recording import (
+from tmopt.physics.control import ControllerSettings
+from tmopt.physics.geometry import Geometry
+from tmopt.physics.recording import (
     ROTATION_CHANNELS,
     Recording,
     atomic_write,
@@ -35,8 +37,6 @@ from tmopt.mismatch.recording import (
     validate,
     write_recording,
 )
-from tmopt.physics.control import ControllerSettings
-from tmopt.physics.geometry import Geometry
 from tmopt.physics.simulator import SimulationConfig, simulate
 
 __all__ = ["Settings", "GenerationError", "generate_recording", "write_generated",
