@@ -30,6 +30,7 @@ import numpy as np
 from scipy import signal
 
 from tmopt.physics.geometry import Geometry
+from tmopt.physics.recording import AXES
 
 __all__ = [
     "AXES",
@@ -50,8 +51,6 @@ __all__ = [
     "excitation_tones",
     "output_error",
 ]
-
-AXES: tuple[str, ...] = ("x1", "x2", "y1", "y2")
 
 
 @dataclass

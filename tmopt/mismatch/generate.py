@@ -27,9 +27,10 @@ from typing import Any
 
 import numpy as np
 
-from tmopt.mismatch.injection import AXES, EFFECT_NAMES, EFFECTS, Builder, Injection
+from tmopt.mismatch.effects import CATALOGUE, EFFECT_NAMES, Builder, Injection, effect
 from tmopt.physics.geometry import Geometry
 from tmopt.physics.recording import (
+    AXES,
     ROTATION_CHANNELS,
     Recording,
     atomic_write,
@@ -65,10 +66,9 @@ def _injections(effects: Iterable[Any]) -> list[Injection]:
         else:
             raise ValueError(f"effects must be Injection, dict or (name, magnitude[, channel]); "
                              f"got {e!r}")  # fmt: skip
-        if inj.name not in EFFECTS:
-            raise ValueError(f"unknown effect {inj.name!r}; choose from {list(EFFECT_NAMES)}")
+        effect(inj.name)  # a known effect, or ValueError naming the choices
         out.append(inj)
-    keys = [(i.name, i.channel or EFFECTS[i.name].default_channel) for i in out]
+    keys = [(i.name, i.channel or effect(i.name).default_channel) for i in out]
     dup = sorted({k for k in keys if keys.count(k) > 1})
     if dup:
         raise ValueError(f"the same effect twice on one channel: {dup}")
@@ -92,7 +92,7 @@ def generate_recording(
     nominal = Geometry()
     n = int(round(st.duration * st.sample_rate))
     builder = Builder(n, st.sample_rate, nominal, int(seed))
-    truths = [_effect_truth(inj, EFFECTS[inj.name].inject(inj, builder)) for inj in injections]
+    truths = [_effect_truth(inj, effect(inj.name).inject(inj, builder)) for inj in injections]
     ref1, ref2, exc = excitation(st.excitation, st.duration, st.sample_rate)
     cfg = simulation_config(st, builder.geometry)
     res = simulate(ref1[None], ref2[None], cfg, int(seed), builder.perturbations())
@@ -119,7 +119,7 @@ def _finish_channels(rec: Recording, builder: Builder, st: Settings) -> Recordin
 
 
 def _effect_truth(inj: Injection, params: dict[str, Any]) -> dict[str, Any]:
-    model = EFFECTS[inj.name]
+    model = effect(inj.name)
     channel = inj.channel or model.default_channel
     return {
         "name": inj.name, "channel": channel,
@@ -202,52 +202,22 @@ def _json(value: Any) -> Any:
 
 # --------------------------------------------------------------------------- magnitudes
 
-#: Calibrated magnitudes per effect (docs/mismatch-generator.md, "Magnitudes"): ``near``
-#: gives a detectability SNR of about 5, ``large`` about 50, for the default settings
-#: (paper excitation, 1200 s, 10 Hz, Table 1 noise; seed 101), on the given channel with
-#: the given options; output of :func:`calibration_table` (``--calibrate``).
-_CALIBRATED = (
-    # effect, channel, options, near, its SNR, large, its SNR, family of the largest SNR
-    ("actuation_gain", "x1", {}, 6.8e-06, 4.9, 7.1e-05, 51.4,
-     "eq"),
-    ("actuation_delay", "x1", {}, 5.3e-06, 5.0, 5.1e-05, 47.9,
-     "eq"),
-    ("stiffness_cross_coupling", "y1", {"source": "x1"}, 2.9e-09, 4.9, 3.1e-08, 51.8,
-     "eq"),
-    ("cubic_stiffness", "x1", {}, 4.3, 4.9, 45.0, 51.8,
-     "eq"),
-    ("stiffness_drift", "x1", {}, 7.7e-12, 4.8, 8.1e-11, 50.4,
-     "eq"),
-    ("bias_drift", "x1", {}, 2.8e-16, 5.0, 2.7e-15, 48.4,
-     "eq"),
-    ("rotation_coupling", "omega_z", {"profile": "slew"}, 8.6e-11, 5.0, 8.3e-10, 48.1,
-     "eq"),
-    ("sensing_cross_talk", "y1", {"source": "x1", "sensor": "disp"}, 0.0011, 4.9, 0.012, 53.1,
-     "kin_y1"),
-    ("readout_scale", "x1", {"sensor": "disp"}, 3.9e-06, 5.0, 3.7e-05, 47.8,
-     "kin_x1"),
-    ("geometry_error", "alpha", {}, 0.00063, 5.0, 0.0061, 48.5,
-     "eq"),
-    ("glitch", "x1", {"beta": 5.0, "shape": "shapelet"}, 1.5e-11, 5.0, 1.5e-10, 50.5,
-     "eq"),
-    ("colored_noise", "x1", {"exponent": 1.0}, 2.3e-12, 5.2, 7.1e-12, 49.4,
-     "eq"),
-    ("actuation_quantisation", "x1", {}, 2.7e-12, 5.2, 8.4e-12, 50.0,
-     "eq"),
-)
-_KEYS = ("channel", "options", "near", "snr_near", "large", "snr_large", "family")
-MAGNITUDES: dict[str, dict[str, Any]] = {row[0]: dict(zip(_KEYS, row[1:]))
-                                         for row in _CALIBRATED}  # fmt: skip
+#: Calibrated magnitudes per effect (each effect's ``calibration``, see
+#: :class:`tmopt.mismatch.effects.Calibration`): {name: {channel, options, near,
+#: snr_near, large, snr_large, family}}.
+MAGNITUDES: dict[str, dict[str, Any]] = {
+    e.name: asdict(e.calibration) for e in CATALOGUE if e.calibration is not None}
 
 
 def calibrated_injection(name: str, level: str, sign: float = 1.0) -> Injection:
     """The calibrated ``near``/``large`` injection of an effect (its channel and options)."""
+    model = effect(name)
     if name not in MAGNITUDES:
-        raise ValueError(f"unknown effect {name!r}; choose from {list(EFFECT_NAMES)}")
+        raise ValueError(f"{name}: no calibrated magnitudes")
     if level not in ("near", "large"):
         raise ValueError(f"level must be 'near' or 'large'; got {level!r}")
     cal = MAGNITUDES[name]
-    signed = cal[level] * (1.0 if sign >= 0 or not EFFECTS[name].signed else -1.0)
+    signed = cal[level] * (1.0 if sign >= 0 or not model.signed else -1.0)
     return Injection(name, signed, cal["channel"], options=dict(cal["options"]))
 
 
@@ -265,9 +235,7 @@ def calibrated_injection(name: str, level: str, sign: float = 1.0) -> Injection:
 # & Zubakov's optimal-filter SNR, discrete form), the expected excess power  max over
 # octave bands of  sum_k E[w_k] / sqrt(n_k),  w_k = 2 |X_k|^2 / (N fs S_k)  (averaged over
 # REALISATIONS seeds), for noise-like effects (radiometer equation).  Detectability = the
-# largest over families.
-
-NOISE_LIKE = ("colored_noise", "actuation_quantisation")
+# largest over families.  Which statistic: each effect's ``noise_like``.
 
 
 def residual_families(rec: Recording) -> dict[str, np.ndarray]:
@@ -374,7 +342,7 @@ def detectability(inj: Injection, seed: int = 101, settings: dict[str, Any] | No
     """
     settings = {} if settings is None else settings
     clean = _clean_reference(seed, settings) if clean is None else clean
-    noise_like = inj.name in NOISE_LIKE
+    noise_like = effect(inj.name).noise_like
     powers: dict[str, list[np.ndarray]] = {}
     for s in [seed + 7919 * j for j in range(REALISATIONS if noise_like else 1)]:
         try:
@@ -399,7 +367,7 @@ def calibrate(name: str, channel: str | None = None, options: dict | None = None
     Returns {'near': m5, 'large': m50, 'snr_near', 'snr_large', 'family'}; a target not
     reached within the effect's range gives None.
     """
-    model = EFFECTS[name]
+    model = effect(name)
     clean = _clean_reference(seed, settings or {})
 
     def rho(m: float) -> dict[str, Any]:
@@ -435,22 +403,11 @@ def _bisect(rho: Any, target: float, limit: float) -> float | None:
 
 
 #: Channel and options used for the calibrated magnitudes of each effect: chosen so the
-#: effect is excited by the paper's motion (see docs/mismatch-generator.md).
+#: effect is excited by the paper's motion (see docs/mismatch-generator.md); each
+#: effect's ``calibration``, or its default channel.
 CALIBRATION_CASES: dict[str, tuple[str | None, dict[str, Any]]] = {
-    "actuation_gain": ("x1", {}),
-    "actuation_delay": ("x1", {}),
-    "stiffness_cross_coupling": ("y1", {"source": "x1"}),
-    "cubic_stiffness": ("x1", {}),
-    "stiffness_drift": ("x1", {}),
-    "bias_drift": ("x1", {}),
-    "rotation_coupling": ("omega_z", {"profile": "slew"}),
-    "sensing_cross_talk": ("y1", {"source": "x1", "sensor": "disp"}),
-    "readout_scale": ("x1", {"sensor": "disp"}),
-    "geometry_error": ("alpha", {}),
-    "glitch": ("x1", {"beta": 5.0, "shape": "shapelet"}),
-    "colored_noise": ("x1", {"exponent": 1.0}),
-    "actuation_quantisation": ("x1", {}),
-}
+    e.name: ((e.calibration.channel, dict(e.calibration.options)) if e.calibration
+             else (e.default_channel, {})) for e in CATALOGUE}  # fmt: skip
 
 
 def calibration_table(seed: int = 101) -> list[dict[str, Any]]:
@@ -554,7 +511,8 @@ def _parser() -> argparse.ArgumentParser:
 
 def _list_effects() -> str:
     lines = []
-    for name, model in EFFECTS.items():
+    for model in CATALOGUE:
+        name = model.name
         cal = MAGNITUDES.get(name, {})
         lines.append(f"{name:26s} {model.parameter} [{model.unit}], |m| <= {model.limit:g}, "
                      f"channels {'|'.join(model.channels)} (default {model.default_channel}), "
