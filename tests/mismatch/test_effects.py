@@ -20,6 +20,7 @@ import tmopt
 from tmopt.mismatch.diagnose import Settings, evaluate, fit_state
 from tmopt.mismatch.effects import CATALOGUE, Context, Effect
 from tmopt.mismatch.effects.actuation_quantisation import ActuationQuantisation
+from tmopt.mismatch.effects.base import discover
 from tmopt.mismatch.effects.glitch import Glitch, glitch_shape
 from tmopt.mismatch.effects.rotation_coupling import rotation_series
 from tmopt.mismatch.fit import (
@@ -278,3 +279,21 @@ def test_non_profiled_effects_give_regressors_without_a_residual(clean):
             assert cands == []
             continue
         assert cands and all(c.columns and c.effect == e.name for c in cands), e.name
+
+
+@pytest.mark.parametrize("body, match", [
+    ("class Bar(Effect):\n    name = 'bar'\n", "module's name 'foo'"),
+    ("X = 1\n", "exactly one Effect"),
+    ("class A(Effect):\n    name = 'foo'\n\n\nclass B(Effect):\n    name = 'foo'\n",
+     "exactly one Effect"),
+])  # fmt: skip
+def test_the_registry_holds_one_effect_per_module_named_after_it(tmp_path, monkeypatch,
+                                                                  body, match):  # fmt: skip
+    name = "fx_" + tmp_path.name  # a fresh package each case (imports are cached)
+    pkg = tmp_path / name
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "foo.py").write_text("from tmopt.mismatch.effects.base import Effect\n\n\n" + body)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    with pytest.raises(TypeError, match=match):
+        discover(name, [str(pkg)])
