@@ -28,6 +28,11 @@ says everything about it in one place:
 Adding an effect = adding one module here (its name is the effect's name); a new *kind* of
 perturbation also needs its slot in ``Perturbations`` and the closed-loop kernel.
 
+The :class:`Builder` is an injection's only contact with the simulator: another generator
+(e.g. one imitating a foreign simulator) can pass its own object with the same members
+(``n``, ``fs``, ``seed``, ``time``, ``duration``, ``geometry``, ``series``, ``const``,
+``post``) and map the named ``Perturbations`` slots onto its own physics.
+
 For experiment design (an information matrix of a planned excitation), ``candidates`` of
 an effect that is not ``profiled`` reads only ``ctx.data`` and ``ctx.basis``:
 :meth:`Effect.regressors` gives its columns for any (e.g. simulated, noise-free) data.
