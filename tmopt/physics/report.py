@@ -8,7 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["output_dir", "write_csv", "write_rows"]
+from tmopt.physics.excitation import MultiSine
+
+__all__ = ["output_dir", "write_csv", "write_rows", "seed_stats", "fmt_stats",
+           "feasible_population"]  # fmt: skip
 
 
 def output_dir(name: str, override: str | None = None) -> Path:
@@ -32,3 +35,45 @@ def write_rows(path: Path, rows: Sequence[Mapping[str, object]]) -> None:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
+
+
+def seed_stats(values: Sequence[float]) -> dict[str, float]:
+    """Median, min and max over noise seeds (the spread every reported number carries)."""
+    v = np.asarray(values, dtype=float)
+    return {"median": float(np.median(v)), "min": float(v.min()), "max": float(v.max()),
+            "n": int(v.size)}  # fmt: skip
+
+
+def fmt_stats(values: Sequence[float], fmt: str = ".3g") -> str:
+    """``median (min-max)`` of ``values``."""
+    s = seed_stats(values)
+    return f"{s['median']:{fmt}} ({s['min']:{fmt}}-{s['max']:{fmt}})"
+
+
+def feasible_population(
+    n: int, k: int, seed: int, accel_limit: float = 5e-8, motion_limit: float = 4e-4,
+    periods: tuple[float, float] = (60.0, 1200.0), amplitude_max: float = 2e-4,
+    duration: float = 1200.0, sample_rate: float = 10.0,
+) -> MultiSine:
+    """``n`` k-frequency references that satisfy Eq. 20 *a priori* (on the reference).
+
+    Periods log-uniform in ``periods``, phases uniform in [0, 2 pi); each amplitude takes a
+    Dirichlet share of a budget ``s alpha1 F_max`` of ``sum_i A_i w_i^2`` (``s`` uniform in
+    [0.2, 1]), capped at ``amplitude_max``; draws whose ``max |x_ref|`` exceeds
+    ``motion_limit`` are redrawn.  Uniform draws of the problem's box are almost never
+    feasible at k = 3 (docs/decisions.md), so studies of feasible designs use these.
+    """
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(round(duration * sample_rate))) / sample_rate
+    out_a, out_w, out_p = [], [], []
+    while len(out_a) < n:
+        w = 2 * np.pi / np.exp(rng.uniform(*np.log(periods), k))
+        share = rng.dirichlet(np.ones(k)) * rng.uniform(0.2, 1.0) * accel_limit
+        a = np.minimum(share / w**2, amplitude_max)
+        ph = rng.uniform(0, 2 * np.pi, k)
+        ref = MultiSine(a, w, ph)
+        if ref.max_accel()[0] <= accel_limit and np.abs(ref.evaluate(t)).max() <= motion_limit:
+            out_a.append(a)
+            out_w.append(w)
+            out_p.append(ph)
+    return MultiSine(np.array(out_a), np.array(out_w), np.array(out_p))
