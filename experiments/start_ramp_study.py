@@ -18,7 +18,6 @@ designs of the per-design median over seeds).  Writes a CSV and a PNG.
 from __future__ import annotations
 
 import argparse
-import math
 
 import matplotlib
 
@@ -28,18 +27,8 @@ import numpy as np  # noqa: E402
 
 from tmopt.physics.excitation import MultiSine  # noqa: E402
 from tmopt.physics.objectives import eq20_realised, evaluate  # noqa: E402
-from tmopt.physics.report import feasible_population, output_dir, write_rows  # noqa: E402
+from tmopt.physics.report import output_dir, study_designs, write_rows  # noqa: E402
 from tmopt.physics.simulator import SimulationConfig, simulate  # noqa: E402
-
-
-def designs(n: int) -> tuple[MultiSine, MultiSine]:
-    """Fig. 6 state first, then ``n`` a-priori feasible three-frequency pairs."""
-    p1, p2 = feasible_population(n, 3, seed=1), feasible_population(n, 3, seed=2)
-    fig6 = (MultiSine([[5e-5, 0, 0]], [[2 * math.pi / 300, 0, 0]]),
-            MultiSine([[3e-5, 0, 0]], [[2 * math.pi / 500, 0, 0]]))  # fmt: skip
-    cat = [MultiSine(np.vstack([f.amplitude, p.amplitude]), np.vstack([f.omega, p.omega]),
-                     np.vstack([f.phase, p.phase])) for f, p in zip(fig6, (p1, p2))]  # fmt: skip
-    return cat[0], cat[1]
 
 
 def run(ramp: float, controller: str, seeds: int, r1: MultiSine, r2: MultiSine) -> dict:
@@ -64,7 +53,7 @@ def main() -> None:
     ap.add_argument("--out", default=None)
     args = ap.parse_args()
     out = output_dir("start_ramp_study", args.out)
-    r1, r2 = designs(args.designs)
+    r1, r2 = study_designs(args.designs)
     rows = []
     curves: dict[str, dict[str, list[float]]] = {}
     for controller in ("pid", "frbf_pid"):

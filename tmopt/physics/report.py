@@ -11,7 +11,10 @@ import numpy as np
 from tmopt.physics.excitation import MultiSine
 
 __all__ = ["output_dir", "write_csv", "write_rows", "seed_stats", "fmt_stats",
-           "feasible_population"]  # fmt: skip
+           "feasible_population", "study_designs", "FIG6_REFERENCES"]  # fmt: skip
+
+#: Sec. 4.3's fixed motion state (Fig. 6): x1 = 5e-5 sin(2 pi t/300), x2 = 3e-5 sin(2 pi t/500).
+FIG6_REFERENCES = ((5e-5, 2 * np.pi / 300), (3e-5, 2 * np.pi / 500))
 
 
 def output_dir(name: str, override: str | None = None) -> Path:
@@ -77,3 +80,17 @@ def feasible_population(
             out_w.append(w)
             out_p.append(ph)
     return MultiSine(np.array(out_a), np.array(out_w), np.array(out_p))
+
+
+def study_designs(n: int, k: int = 3) -> tuple[MultiSine, MultiSine]:
+    """The Fig. 6 state (design 0) then ``n`` a-priori feasible k-frequency pairs (TM1 from
+    population seed 1, TM2 from seed 2): the design set of the physics studies."""
+    pops = (feasible_population(n, k, seed=1), feasible_population(n, k, seed=2))
+    out = []
+    for (a0, w0), pop in zip(FIG6_REFERENCES, pops):
+        first = np.zeros((1, k))
+        amp, omega = first.copy(), first.copy()
+        amp[0, 0], omega[0, 0] = a0, w0
+        out.append(MultiSine(np.vstack([amp, pop.amplitude]), np.vstack([omega, pop.omega]),
+                             np.vstack([first, pop.phase])))  # fmt: skip
+    return out[0], out[1]

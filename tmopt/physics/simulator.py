@@ -112,7 +112,7 @@ class SimulationConfig:
     rls_p0: float = 1e6
     rls_scales: tuple[float, float, float] = (1e-5, 1e-8, 1e-12)
     rls_columns: tuple[str, ...] = PARAMETERS
-    ramp_in: float = 0.0
+    ramp_in: float = 90.0
     divergence_bound: float = 4e-3
     steady_after: float = 300.0
     record: Literal["full", "estimates"] = "full"

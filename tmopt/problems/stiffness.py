@@ -42,8 +42,8 @@ import numpy as np
 
 from tmopt.metrics.identification import metric_m_at_threshold
 from tmopt.physics import objectives as phys_obj
-from tmopt.physics.excitation import MultiSine
 from tmopt.physics.control import ControllerSettings
+from tmopt.physics.excitation import MultiSine
 from tmopt.physics.simulator import (
     SimulationConfig,
     SimulationResult,
