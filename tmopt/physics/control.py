@@ -30,7 +30,12 @@ __all__ = [
     "frbf_learn",
     "closed_loop_poles",
     "derivative_filter_pole",
+    "rate_scaled_gains",
+    "PAPER_RATE",
 ]
+
+#: Sampling rate of the paper's simulation (Sec. 4.1) [Hz]: per-sample gains are given at it.
+PAPER_RATE = 10.0
 
 #: Controllers of the sensitive axes; the non-sensitive axes always use a fixed-gain PID.
 CONTROLLERS: tuple[str, ...] = ("frbf_pid", "pid")
@@ -105,6 +110,15 @@ class ControllerSettings:
         _check_finite("gain_bounds", (lo, hi))
         if not 0 <= lo < 1 < hi:
             raise ValueError(f"gain_bounds must satisfy 0 <= lo < 1 < hi; got {self.gain_bounds}")
+
+
+def rate_scaled_gains(
+    gains: tuple[float, float, float], sample_rate: float
+) -> tuple[float, float, float]:
+    """Per-sample ``[Kp, Ki, Kd]`` given at :data:`PAPER_RATE` -> the same continuous gains
+    ``P = Kp``, ``I = Ki / dt``, ``D = Kd dt`` at ``sample_rate`` (identity at 10 Hz)."""
+    r = PAPER_RATE / sample_rate  # dt / dt_paper
+    return (gains[0], gains[1] * r, gains[2] / r)
 
 
 def derivative_filter_pole(tau: float, dt: float) -> float:
