@@ -90,8 +90,9 @@ def trends(st, maps, tm: int) -> dict[str, float]:
     return {k: float(v) for k, v in out.items()}
 
 
-def plot(maps, path, n) -> None:
+def plot(maps, path, n, seeds: int) -> None:
     fig, axes = plt.subplots(2, 2, figsize=(11, 9))
+    fig.suptitle(f"Fig. 7 reproduction: median over {seeds} noise seeds")
     for row, tm in enumerate((1, 2)):
         for col, (key, label) in enumerate(((f"t{tm}", "convergence time [s]"),
                                             (f"a{tm}", "log10 convergence accuracy"))):  # fmt: skip
@@ -137,7 +138,7 @@ def main() -> None:
     seed_rows = [{"tm": tm, "seed": s, **summary[tm][s]} for tm in (1, 2)
                  for s in range(args.seeds)]  # fmt: skip
     write_rows(out / "fig7_trends_seeds.csv", seed_rows)
-    plot(med, out / "fig7_single_frequency_grid.png", len(st))
+    plot(med, out / "fig7_single_frequency_grid.png", len(st), args.seeds)
     for tm in (1, 2):
         print(f"k{tm}xx, median (min-max) over {args.seeds} seeds:")
         for key in summary[tm][0]:
