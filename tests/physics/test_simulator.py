@@ -48,6 +48,10 @@ def test_bad_controller_settings_raise():
         ControllerSettings(centres=(0.0, 1.0))
     with pytest.raises(ValueError, match="error_scale"):
         ControllerSettings(error_scale=float("nan"))
+    with pytest.raises(ValueError, match=r"y_derivative_filter must be finite and in \[0, inf\)"):
+        ControllerSettings(y_derivative_filter=-0.5)
+    with pytest.raises(ValueError, match="rls_columns must be distinct names"):
+        SimulationConfig(rls_columns=("k1xx", "kzz"))
 
 
 def test_bad_references_raise():
