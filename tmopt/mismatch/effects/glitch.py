@@ -42,7 +42,7 @@ class Glitch(Effect):
     repeatable = True
     KINDS: ClassVar[tuple[str, ...]] = ("exp", "shapelet")
     calibration = Calibration("x1", {"beta": 5.0, "shape": "shapelet"}, 1.5e-11, 5.0, 1.5e-10,
-                              50.5, "eq")  # fmt: skip
+                              50.4, "eq")  # fmt: skip
 
     def inject(self, inj: Injection, b: Builder) -> dict[str, Any]:
         ch, opt = self.check(inj, b.duration)
