@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 from omegaconf import OmegaConf
 
-from tmopt.config import check_node
-from tmopt.problems.evaluator import Evaluator
-from tmopt.runner import run_optimisation
+from tmopt.evaluation.evaluator import Evaluator
+from tmopt.run.config import check_node
+from tmopt.run.runner import run_optimisation
 
 REPO = Path(__file__).resolve().parents[2]
 

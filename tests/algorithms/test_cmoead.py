@@ -8,7 +8,7 @@ from pymoo.core.population import Population
 
 from tmopt.algorithms.base import AlgorithmConfigError
 from tmopt.algorithms.cmoead import CMOEAD, ConstrainedMOEAD
-from tmopt.problems.evaluator import Evaluator
+from tmopt.evaluation.evaluator import Evaluator
 from tmopt.problems.suites import SUITE_PROBLEMS, PymooBenchmark
 
 from .contract import (

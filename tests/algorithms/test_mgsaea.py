@@ -21,7 +21,7 @@ from tmopt.algorithms.mgsaea import (
     _Set,
     violation_scale,
 )
-from tmopt.algorithms.selection import total_violation
+from tmopt.algorithms.operators.survival import total_violation
 from tmopt.metrics.selection import best_compromise
 from tmopt.problems.base import ConstraintGroup, ExpensiveProblem
 from tmopt.problems.suites import PymooBenchmark

@@ -17,7 +17,7 @@ import pytest
 
 from tmopt.algorithms.mgsaea import MGSAEAIPC
 from tmopt.problems.suites import PymooBenchmark
-from tmopt.runner import run_optimisation
+from tmopt.run.runner import run_optimisation
 
 pytest.importorskip("tmopt.surrogates.gp")
 REPO = Path(__file__).resolve().parents[2]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tmopt.algorithms.selection import (
+from tmopt.algorithms.operators.survival import (
     cdp_sort,
     change_rate,
     choose_granularity,
@@ -170,7 +170,7 @@ def test_bad_input_is_named():
 
 
 def test_ga_offspring_two_children_per_pair_within_bounds_and_reproducible():
-    from tmopt.algorithms.selection import ga_offspring
+    from tmopt.algorithms.operators.survival import ga_offspring
 
     rng = np.random.default_rng(0)
     X = rng.random((10, 6))

@@ -7,11 +7,11 @@ import pytest
 from pymoo.indicators.hv import HV
 
 from tmopt.algorithms.base import AlgorithmConfigError
-from tmopt.algorithms.selection import total_violation
+from tmopt.algorithms.operators.survival import total_violation
 from tmopt.algorithms.som import SelfOrganisingMap
 from tmopt.algorithms.ssde import SSDE
+from tmopt.evaluation.evaluator import EvaluatedBatch, Evaluator
 from tmopt.problems.base import ExpensiveProblem
-from tmopt.problems.evaluator import EvaluatedBatch, Evaluator
 from tmopt.problems.suites import SUITE_PROBLEMS, PymooBenchmark
 
 from .contract import (

@@ -4,8 +4,8 @@ import h5py
 import numpy as np
 import pytest
 
-import tmopt.archive as archive_mod
-from tmopt.archive import (
+import tmopt.evaluation.archive as archive_mod
+from tmopt.evaluation.archive import (
     ArchiveData,
     ArchiveError,
     EvaluationArchive,

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 from omegaconf import OmegaConf
 
-from tmopt.config import check_node
+from tmopt.run.config import check_node
 from tmopt.surrogates.base import Surrogate
 
 CONF = Path(__file__).resolve().parents[2] / "conf" / "surrogate"

@@ -23,9 +23,9 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from tmopt.archive import atomic_write_bytes
+from tmopt.evaluation.archive import atomic_write_bytes
+from tmopt.evaluation.evaluator import EvaluatedBatch
 from tmopt.problems.base import ExpensiveProblem
-from tmopt.problems.evaluator import EvaluatedBatch
 
 log = logging.getLogger(__name__)
 

@@ -59,14 +59,8 @@ from math import ceil
 
 import numpy as np
 
-from tmopt.algorithms._evolution import (
-    check_number,
-    de_offspring,
-    lexicographic_rank,
-    nsga2_selection,
-)
 from tmopt.algorithms.base import Algorithm, AlgorithmConfigError
-from tmopt.algorithms.selection import (
+from tmopt.algorithms.operators.survival import (
     environmental_selection,
     ga_offspring,
     spea2_fitness,
@@ -74,8 +68,14 @@ from tmopt.algorithms.selection import (
     tournament,
     truncation,
 )
+from tmopt.algorithms.operators.variation import (
+    check_number,
+    de_offspring,
+    lexicographic_rank,
+    nsga2_selection,
+)
+from tmopt.evaluation.evaluator import EvaluatedBatch
 from tmopt.problems.base import ExpensiveProblem
-from tmopt.problems.evaluator import EvaluatedBatch
 
 log = logging.getLogger(__name__)
 

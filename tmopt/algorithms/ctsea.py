@@ -14,7 +14,7 @@ Parameters (constructor arguments, default, meaning):
     crossover_eta (20), mutation_eta (20): SBX (probability 1) and polynomial mutation
         (1/n_var per variable), PlatEMO's ``OperatorGA`` defaults.
     normalise (True): SPEA2 density and truncation on min-max normalised objectives
-        (False = PlatEMO's raw distances); see tmopt.algorithms.selection.
+        (False = PlatEMO's raw distances); see tmopt.algorithms.operators.survival.
 
 Algorithm:
     Stage one (the first ``stage_ratio`` of the budget) ignores the constraints and drives
@@ -50,14 +50,14 @@ from pymoo.util.ref_dirs import get_reference_directions
 from scipy.spatial.distance import cdist
 
 from tmopt.algorithms.base import Algorithm, AlgorithmConfigError
-from tmopt.algorithms.selection import (
+from tmopt.algorithms.operators.survival import (
     environmental_selection,
     ga_offspring,
     spea2_fitness,
     total_violation,
     tournament,
 )
-from tmopt.problems.evaluator import EvaluatedBatch
+from tmopt.evaluation.evaluator import EvaluatedBatch
 
 
 # ---- AR-MOEA parts (no library offers them) --------------------------------------------------

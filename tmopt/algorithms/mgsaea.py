@@ -47,7 +47,7 @@ evaluations), following MGSAEA.m:
    more than ``gap`` iterations are recorded, mc (seed paper Eq. 20) <= threshold
    switches to stage two for good.
 4. Stage two (all variants): the granularity follows the population
-   (:func:`~tmopt.algorithms.selection.choose_granularity`): coarse = objectives + one
+   (:func:`~tmopt.algorithms.operators.survival.choose_granularity`): coarse = objectives + one
    model of the normalised total violation, CDP; fine = objectives + one model per not
    fully satisfied constraint, their summed violation an extra objective of SPEA2;
    objectives = objective models only, SPEA2 (TNNLS paper Sec. III).
@@ -75,7 +75,7 @@ from pymoo.operators.sampling.lhs import LHS
 from scipy.spatial.distance import cdist
 
 from tmopt.algorithms.base import Algorithm, AlgorithmConfigError
-from tmopt.algorithms.selection import (
+from tmopt.algorithms.operators.survival import (
     change_rate,
     choose_granularity,
     environmental_selection,
@@ -85,9 +85,9 @@ from tmopt.algorithms.selection import (
     tournament,
     unique_rows,
 )
+from tmopt.evaluation.evaluator import EvaluatedBatch
 from tmopt.metrics.selection import best_compromise
 from tmopt.problems.base import ConstraintGroup, ExpensiveProblem
-from tmopt.problems.evaluator import EvaluatedBatch
 from tmopt.surrogates.base import Surrogate
 
 log = logging.getLogger(__name__)
@@ -484,7 +484,7 @@ class MGSAEAIPC(MGSAEA):
         self.ungrouped = ungrouped
 
     def check_budget(self, problem: ExpensiveProblem, budget: int) -> None:
-        # The pre-flight hook that both the CLI (tmopt.build) and setup() call: a problem
+        # The pre-flight hook that both the CLI (tmopt.run.build) and setup() call: a problem
         # IPC cannot group fails here with one line, before any evaluation.
         super().check_budget(problem, budget)
         self.stage_one_indices(problem)

@@ -95,10 +95,10 @@ from botorch.sampling import SobolQMCNormalSampler
 from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
 from scipy.stats import qmc
 
-from tmopt.algorithms._evolution import check_int, check_number
 from tmopt.algorithms.base import Algorithm, AlgorithmConfigError
+from tmopt.algorithms.operators.variation import check_int, check_number
+from tmopt.evaluation.evaluator import EvaluatedBatch
 from tmopt.problems.base import ExpensiveProblem
-from tmopt.problems.evaluator import EvaluatedBatch
 from tmopt.surrogates.gp import KERNELS, GPSurrogate
 
 log = logging.getLogger(__name__)

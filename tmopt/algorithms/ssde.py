@@ -60,11 +60,16 @@ import logging
 
 import numpy as np
 
-from tmopt.algorithms._evolution import check_int, check_number, de_offspring, nsga2_selection
 from tmopt.algorithms.base import Algorithm
-from tmopt.algorithms.selection import total_violation, tournament
+from tmopt.algorithms.operators.survival import total_violation, tournament
+from tmopt.algorithms.operators.variation import (
+    check_int,
+    check_number,
+    de_offspring,
+    nsga2_selection,
+)
 from tmopt.algorithms.som import SelfOrganisingMap
-from tmopt.problems.evaluator import EvaluatedBatch
+from tmopt.evaluation.evaluator import EvaluatedBatch
 
 log = logging.getLogger(__name__)
 

@@ -8,8 +8,8 @@ from functools import partial
 from omegaconf import DictConfig, OmegaConf
 
 from tmopt.algorithms.base import Algorithm, AlgorithmConfigError
-from tmopt.config import ConfigError, check_node
 from tmopt.problems.base import ExpensiveProblem
+from tmopt.run.config import ConfigError, check_node
 
 
 def _kwargs(node: DictConfig) -> dict:

@@ -23,13 +23,13 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
-from tmopt.archive import ArchiveError, atomic_write_text
-from tmopt.build import build
-from tmopt.config import GROUPS, ConfigError, config_hash, register_configs
+from tmopt.evaluation.archive import ArchiveError, atomic_write_text
+from tmopt.run.build import build
+from tmopt.run.config import GROUPS, ConfigError, config_hash, register_configs
 
 log = logging.getLogger("tmopt")
 
-CONF_DIR = Path(__file__).resolve().parent.parent / "conf"
+CONF_DIR = Path(__file__).resolve().parents[2] / "conf"
 #: Flags after which Hydra prints information instead of running: no pre-flight needed.
 INFO_FLAGS = {"--help", "-h", "--hydra-help", "--info", "-i", "--cfg", "-c",
               "--shell-completion", "-sc", "--version", "--resolve", "-p", "--package"}
@@ -150,7 +150,7 @@ def run_from_config(cfg: DictConfig) -> dict | None:
     try:
         problem, algorithm = build(cfg, choices)
         atomic_write_text(outdir / "config.yaml", OmegaConf.to_yaml(cfg, resolve=True))
-        from tmopt.runner import run_optimisation
+        from tmopt.run.runner import run_optimisation
 
         result = run_optimisation(
             problem, algorithm, budget=cfg.budget, seed=cfg.seed, outdir=outdir,

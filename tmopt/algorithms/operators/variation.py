@@ -18,7 +18,7 @@ from pymoo.operators.mutation.pm import mut_pm
 from pymoo.operators.survival.rank_and_crowding.metrics import calc_crowding_distance
 
 from tmopt.algorithms.base import AlgorithmConfigError
-from tmopt.algorithms.selection import cdp_sort
+from tmopt.algorithms.operators.survival import cdp_sort
 
 
 def check_int(algorithm: str, label: str, value, minimum: int) -> int:
@@ -59,7 +59,7 @@ def nsga2_selection(F: np.ndarray, cv: np.ndarray, n: int) -> tuple[np.ndarray, 
                                                                      np.ndarray]:
     """NSGA-II environmental selection under CDP (Deb et al., IEEE TEVC 6(2), 2002).
 
-    Whole fronts (:func:`~tmopt.algorithms.selection.cdp_sort`) are kept while they fit;
+    Whole fronts (:func:`~tmopt.algorithms.operators.survival.cdp_sort`) are kept while they fit;
     the last one is cut by crowding distance, largest first (ties: lower index).
 
     Returns:
