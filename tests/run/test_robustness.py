@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import tmopt.evaluation.archive
+import tmopt.files
 from tmopt.algorithms.nsga2 import NSGA2
 from tmopt.evaluation.archive import ArchiveError, read_archive
 from tmopt.evaluation.evaluator import Evaluator
@@ -180,7 +180,7 @@ def test_disk_full_during_an_archive_write_loses_nothing_already_archived(tmp_pa
                 raise OSError(errno.ENOSPC, "No space left on device")
         return real_replace(src, dst)
 
-    monkeypatch.setattr(tmopt.evaluation.archive.os, "replace", full_disk)
+    monkeypatch.setattr(tmopt.files.os, "replace", full_disk)
     run = tmp_path / "run"
     with pytest.raises(OSError) as err:
         run_optimisation(problem, NSGA2(pop_size=20), budget=120, seed=3, outdir=run,
@@ -189,7 +189,7 @@ def test_disk_full_during_an_archive_write_loses_nothing_already_archived(tmp_pa
     assert "40 evaluations archived before are intact" in str(err.value)
     assert _rows(run / "archive.h5") == 40
     assert not list(run.glob(".archive.h5.*"))  # no temporary file left behind
-    monkeypatch.setattr(tmopt.evaluation.archive.os, "replace", real_replace)
+    monkeypatch.setattr(tmopt.files.os, "replace", real_replace)
     resumed = run_optimisation(problem, NSGA2(pop_size=20), budget=120, seed=3, outdir=run,
                                progress=False, plots=False)
     assert resumed.resumed_from == 40

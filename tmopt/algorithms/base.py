@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from tmopt.evaluation.archive import atomic_write_bytes
 from tmopt.evaluation.evaluator import EvaluatedBatch
+from tmopt.files import atomic_write_bytes
 from tmopt.problems.base import ExpensiveProblem
 
 log = logging.getLogger(__name__)

@@ -32,7 +32,7 @@ import logging
 import sys
 from pathlib import Path
 
-from tmopt.evaluation.archive import atomic_write_text
+from tmopt.files import atomic_write_text
 from tmopt.reporting import anytime, figures
 from tmopt.reporting.paper import algorithm_order, display_name
 from tmopt.reporting.runs import (

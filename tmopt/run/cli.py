@@ -23,7 +23,8 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
-from tmopt.evaluation.archive import ArchiveError, atomic_write_text
+from tmopt.evaluation.archive import ArchiveError
+from tmopt.files import atomic_write_text
 from tmopt.run.build import build
 from tmopt.run.config import GROUPS, ConfigError, config_hash, register_configs
 

@@ -18,7 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from tmopt.evaluation.archive import ArchiveData, atomic_write_text
+from tmopt.evaluation.archive import ArchiveData
+from tmopt.files import atomic_write_text
 from tmopt.metrics import best_compromise, hypervolume, igd, igd_plus, non_dominated_feasible
 from tmopt.metrics.indicators import constraint_violation
 from tmopt.run.progress import best_so_far, feasible_share
