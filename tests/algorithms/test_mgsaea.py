@@ -21,7 +21,7 @@ from tmopt.algorithms.mgsaea import (
     _Set,
     violation_scale,
 )
-from tmopt.algorithms.operators.survival import total_violation
+from tmopt.metrics.indicators import constraint_violation
 from tmopt.metrics.selection import best_compromise
 from tmopt.problems.base import ConstraintGroup, ExpensiveProblem
 from tmopt.problems.suites import PymooBenchmark
@@ -207,7 +207,7 @@ def test_final_solution_is_eq21_among_feasible_non_dominated_archive_members():
     run(alg, TwoGroupProblem(), budget=60)
     best = alg.final_solution()
     arc = alg.archive
-    feas = total_violation(arc["G"]) <= 0
+    feas = constraint_violation(arc["G"]) <= 0
     assert best["feasible"] == bool(feas.any())
     if best["feasible"]:
         F = arc["F"][feas]

@@ -61,9 +61,8 @@ from pymoo.operators.mutation.pm import PM
 from pymoo.util.ref_dirs import get_reference_directions
 from scipy.spatial.distance import cdist
 
-from tmopt.algorithms.base import AlgorithmConfigError
+from tmopt.algorithms.base import AlgorithmConfigError, check_int, check_number
 from tmopt.algorithms.nsga3 import partitions_for
-from tmopt.algorithms.operators.variation import check_int, check_number
 from tmopt.algorithms.pymoo_adapter import PymooAdapter
 from tmopt.problems.base import ExpensiveProblem
 

@@ -59,22 +59,17 @@ from math import ceil
 
 import numpy as np
 
-from tmopt.algorithms.base import Algorithm, AlgorithmConfigError
+from tmopt.algorithms.base import Algorithm, AlgorithmConfigError, check_number
 from tmopt.algorithms.operators.survival import (
     environmental_selection,
-    ga_offspring,
-    spea2_fitness,
-    total_violation,
-    tournament,
-    truncation,
-)
-from tmopt.algorithms.operators.variation import (
-    check_number,
-    de_offspring,
     lexicographic_rank,
     nsga2_selection,
+    spea2_fitness,
+    truncation,
 )
+from tmopt.algorithms.operators.variation import de_offspring, ga_offspring, tournament
 from tmopt.evaluation.evaluator import EvaluatedBatch
+from tmopt.metrics.indicators import constraint_violation
 from tmopt.problems.base import ExpensiveProblem
 
 log = logging.getLogger(__name__)
@@ -92,7 +87,7 @@ class _Set:
 
     @property
     def cv(self) -> np.ndarray:
-        return total_violation(self.G)
+        return constraint_violation(self.G)
 
     def take(self, idx) -> _Set:
         return _Set(self.X[idx], self.F[idx], self.G[idx])

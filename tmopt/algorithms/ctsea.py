@@ -50,14 +50,10 @@ from pymoo.util.ref_dirs import get_reference_directions
 from scipy.spatial.distance import cdist
 
 from tmopt.algorithms.base import Algorithm, AlgorithmConfigError
-from tmopt.algorithms.operators.survival import (
-    environmental_selection,
-    ga_offspring,
-    spea2_fitness,
-    total_violation,
-    tournament,
-)
+from tmopt.algorithms.operators.survival import environmental_selection, spea2_fitness
+from tmopt.algorithms.operators.variation import ga_offspring, tournament
 from tmopt.evaluation.evaluator import EvaluatedBatch
+from tmopt.metrics.indicators import constraint_violation
 
 
 # ---- AR-MOEA parts (no library offers them) --------------------------------------------------
@@ -248,7 +244,7 @@ class CTSEA(Algorithm):
         return tournament(-removal_metric(dist), self.pop_size, self.rng)
 
     def _mating_stage_two(self) -> np.ndarray:
-        fit = spea2_fitness(self.pop["F"], total_violation(self.pop["G"]),
+        fit = spea2_fitness(self.pop["F"], constraint_violation(self.pop["G"]),
                             normalise=self.normalise)
         return tournament(fit, self.pop_size, self.rng)
 
@@ -274,13 +270,14 @@ class CTSEA(Algorithm):
             self.pop = _take(both, idx)
         else:
             both = _join(self.pop, new)
-            fit = spea2_fitness(both["F"], total_violation(both["G"]), normalise=self.normalise)
+            fit = spea2_fitness(both["F"], constraint_violation(both["G"]),
+                                normalise=self.normalise)
             idx = environmental_selection(fit, both["F"], self.pop_size, normalise=self.normalise)
             self.pop = _take(both, idx[np.argsort(fit[idx], kind="stable")])
 
     def _update_archive(self, archive: dict | None, pop: dict) -> dict:
         """Feasible designs join (no copies); fill to N by violation or cut by CDP-SPEA2."""
-        cv = total_violation(pop["G"])
+        cv = constraint_violation(pop["G"])
         fresh = cv <= 0.0
         if archive is not None:
             fresh &= ~_rows_in(pop["X"], archive["X"])
@@ -292,7 +289,7 @@ class CTSEA(Algorithm):
             rest = rest[np.argsort(cv[rest], kind="stable")][: n - len(arc["X"])]
             arc = _join(arc, _take(pop, rest))
         elif len(arc["X"]) > n:
-            fit = spea2_fitness(arc["F"], total_violation(arc["G"]), normalise=self.normalise)
+            fit = spea2_fitness(arc["F"], constraint_violation(arc["G"]), normalise=self.normalise)
             arc = _take(arc, environmental_selection(fit, arc["F"], n, normalise=self.normalise))
         return arc
 

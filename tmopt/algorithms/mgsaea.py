@@ -75,17 +75,12 @@ from pymoo.operators.sampling.lhs import LHS
 from scipy.spatial.distance import cdist
 
 from tmopt.algorithms.base import Algorithm, AlgorithmConfigError
-from tmopt.algorithms.operators.survival import (
-    change_rate,
-    choose_granularity,
-    environmental_selection,
-    ga_offspring,
-    spea2_fitness,
-    total_violation,
-    tournament,
-    unique_rows,
-)
+from tmopt.algorithms.operators.constraints import choose_granularity
+from tmopt.algorithms.operators.stage import change_rate
+from tmopt.algorithms.operators.survival import environmental_selection, spea2_fitness
+from tmopt.algorithms.operators.variation import ga_offspring, tournament, unique_rows
 from tmopt.evaluation.evaluator import EvaluatedBatch
+from tmopt.metrics.indicators import constraint_violation
 from tmopt.metrics.selection import best_compromise
 from tmopt.problems.base import ConstraintGroup, ExpensiveProblem
 from tmopt.surrogates.base import Surrogate
@@ -424,14 +419,14 @@ class MGSAEA(Algorithm):
         if not con:
             return np.zeros(len(s))
         cols = list(con)
-        return total_violation(s.G[:, cols] / scale[cols])
+        return constraint_violation(s.G[:, cols] / scale[cols])
 
     def _update_archive(self, new: _Set) -> _Set:
         """Archive of size N: union, duplicates (objectives) removed, constrained SPEA2."""
         arc = new if self._archive is None else _Set.join(self._archive, new)
         arc = arc.take(unique_rows(arc.F))
         if len(arc) > self.pop_size:
-            fit = spea2_fitness(arc.F, total_violation(arc.G), normalise=self.normalise)
+            fit = spea2_fitness(arc.F, constraint_violation(arc.G), normalise=self.normalise)
             arc = arc.take(environmental_selection(fit, arc.F, self.pop_size,
                                                    normalise=self.normalise))
         return arc
@@ -454,7 +449,7 @@ class MGSAEA(Algorithm):
         if self._archive is None or len(self._archive) == 0:
             raise AlgorithmStateError(f"algorithm {self.name}: no archive yet")
         arc = self._archive
-        cv = total_violation(arc.G)
+        cv = constraint_violation(arc.G)
         feas = np.flatnonzero(cv <= 0.0)
         if feas.size == 0:
             i = int(np.argmin(cv))

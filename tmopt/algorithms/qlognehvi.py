@@ -95,8 +95,7 @@ from botorch.sampling import SobolQMCNormalSampler
 from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
 from scipy.stats import qmc
 
-from tmopt.algorithms.base import Algorithm, AlgorithmConfigError
-from tmopt.algorithms.operators.variation import check_int, check_number
+from tmopt.algorithms.base import Algorithm, AlgorithmConfigError, check_int, check_number
 from tmopt.evaluation.evaluator import EvaluatedBatch
 from tmopt.problems.base import ExpensiveProblem
 from tmopt.surrogates.gp import KERNELS, GPSurrogate

@@ -60,16 +60,12 @@ import logging
 
 import numpy as np
 
-from tmopt.algorithms.base import Algorithm
-from tmopt.algorithms.operators.survival import total_violation, tournament
-from tmopt.algorithms.operators.variation import (
-    check_int,
-    check_number,
-    de_offspring,
-    nsga2_selection,
-)
+from tmopt.algorithms.base import Algorithm, check_int, check_number
+from tmopt.algorithms.operators.survival import nsga2_selection
+from tmopt.algorithms.operators.variation import de_offspring, tournament
 from tmopt.algorithms.som import SelfOrganisingMap
 from tmopt.evaluation.evaluator import EvaluatedBatch
+from tmopt.metrics.indicators import constraint_violation
 
 log = logging.getLogger(__name__)
 
@@ -145,7 +141,7 @@ class SSDE(Algorithm):
     def _generation(self) -> tuple[np.ndarray, np.ndarray]:
         """Children predicted to survive, and the population rows they would replace."""
         n = self.pop_size
-        cv = total_violation(self.G)
+        cv = constraint_violation(self.G)
         base = self.X[tournament(cv, n, self.rng)]
         r1 = self.X[self.rng.integers(0, n, n)]
         r2 = self.X[self.rng.integers(0, n, n)]
@@ -153,7 +149,7 @@ class SSDE(Algorithm):
                             self.mutation_eta)
         predicted = self.som.predict(self._normalise(kids))
         m = self.problem.n_obj
-        kid_cv = total_violation(predicted[:, m:]) if self.model_constraints else np.zeros(n)
+        kid_cv = constraint_violation(predicted[:, m:]) if self.model_constraints else np.zeros(n)
         F = np.vstack([self.F, predicted[:, :m]])
         keep = nsga2_selection(F, np.concatenate([cv, kid_cv]), n)[0]
         out = np.setdiff1d(np.arange(n), keep)

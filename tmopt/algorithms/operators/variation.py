@@ -1,93 +1,76 @@
-"""Small parts shared by the baseline algorithms (C-MOEA/D, CMOES, SSDE, qLogNEHVI).
+"""Variation: choosing parents and making children from them.
 
-* :func:`nsga2_selection` -- NSGA-II's environmental selection under the constrained-
-  dominance principle (CMOES stage one, SSDE).
-* :func:`lexicographic_rank` -- turns (front, -crowding) into one tournament fitness.
+* :func:`tournament` -- K-ary tournament on a fitness (lower is better), as PlatEMO's
+  ``TournamentSelection``.
+* :func:`ga_offspring` -- PlatEMO's ``OperatorGA`` (SBX + polynomial mutation) on arrays,
+  with pymoo's operator kernels (MGSAEA, C-TSEA, CMOES).
 * :func:`de_offspring` -- DE/rand/1/bin then polynomial mutation on pymoo's kernels
   (PlatEMO's ``OperatorDE``: CMOES with ``operator="de"``, SSDE).
-* :func:`check_int`, :func:`check_number` -- constructor argument checks whose messages
-  name the algorithm, the argument and the value.
+* :func:`unique_rows` -- drops repeated children before they are evaluated.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 from pymoo.operators.crossover.binx import mut_binomial
 from pymoo.operators.crossover.dex import de_differential
+from pymoo.operators.crossover.sbx import cross_sbx
 from pymoo.operators.mutation.pm import mut_pm
-from pymoo.operators.survival.rank_and_crowding.metrics import calc_crowding_distance
-
-from tmopt.algorithms.base import AlgorithmConfigError
-from tmopt.algorithms.operators.survival import cdp_sort
 
 
-def check_int(algorithm: str, label: str, value, minimum: int) -> int:
-    """``value`` as an int, or :class:`AlgorithmConfigError` unless an integer >= minimum."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise AlgorithmConfigError(f"algorithm {algorithm}: {label} must be an integer "
-                                   f">= {minimum}, got {value!r}")
-    return int(value)
+def tournament(fitness: ArrayLike, n: int, rng: np.random.Generator, k: int = 2) -> np.ndarray:
+    """Indices of ``n`` winners of k-ary tournaments on ``fitness`` (lower is better).
 
-
-def check_number(algorithm: str, label: str, value, low: float, high: float = np.inf,
-                 low_open: bool = False) -> float:
-    """``value`` as a float, or :class:`AlgorithmConfigError` unless in [low, high].
-
-    ``low_open`` makes the lower end exclusive, (low, high].
+    Ties go to the solution that comes first in a stable sort of the fitness, as in
+    PlatEMO's ``TournamentSelection``.
     """
-    ok = not isinstance(value, bool) and isinstance(value, (int, float, np.floating)) \
-        and np.isfinite(value) and (value > low if low_open else value >= low) \
-        and value <= high
-    if not ok:
-        bracket = "(" if low_open else "["
-        upper = "inf)" if high == np.inf else f"{high}]"
-        raise AlgorithmConfigError(f"algorithm {algorithm}: {label} must be a finite number "
-                                   f"in {bracket}{low}, {upper}, got {value!r}")
-    return float(value)
+    fitness = np.asarray(fitness, dtype=float).reshape(-1)
+    if len(fitness) == 0:
+        raise ValueError("tournament needs at least one candidate")
+    rank = np.empty(len(fitness), dtype=int)
+    rank[np.argsort(fitness, kind="stable")] = np.arange(len(fitness))
+    cand = rng.integers(0, len(fitness), size=(n, k))
+    return cand[np.arange(n), np.argmin(rank[cand], axis=1)]
 
 
-def crowding_per_front(F: np.ndarray, front: np.ndarray) -> np.ndarray:
-    """Crowding distance (pymoo's) of each row within its own front."""
-    crowd = np.zeros(len(F))
-    for f in np.unique(front):
-        members = np.flatnonzero(front == f)
-        crowd[members] = calc_crowding_distance(F[members])
-    return crowd
+def unique_rows(A: ArrayLike, decimals: int | None = None) -> np.ndarray:
+    """Indices of the first occurrence of each distinct row, in their original order."""
+    A = np.asarray(A, dtype=float)
+    key = A if decimals is None else np.round(A, decimals)
+    _, first = np.unique(key, axis=0, return_index=True)
+    return np.sort(first)
 
 
-def nsga2_selection(F: np.ndarray, cv: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray,
-                                                                     np.ndarray]:
-    """NSGA-II environmental selection under CDP (Deb et al., IEEE TEVC 6(2), 2002).
+def ga_offspring(X: ArrayLike, mates: ArrayLike, xl: np.ndarray, xu: np.ndarray,
+                 rng: np.random.Generator, crossover_eta: float = 20.0,
+                 mutation_eta: float = 20.0) -> np.ndarray:
+    """Two children per mating pair: SBX then polynomial mutation (PlatEMO's OperatorGA).
 
-    Whole fronts (:func:`~tmopt.algorithms.operators.survival.cdp_sort`) are kept while they fit;
-    the last one is cut by crowding distance, largest first (ties: lower index).
+    SBX with probability 1 per pair, each variable crossed with probability 0.5 and the
+    children swapped per variable with probability 0.5; polynomial mutation of each
+    variable with probability 1/n_var. pymoo's array kernels (``cross_sbx``, ``mut_pm``)
+    are called directly: its operator objects wrap every child in an ``Individual``,
+    which cost more than the whole surrogate generation at 300 children.
 
+    Args:
+        X: Designs ``(n, n_var)``.
+        mates: Pairs of row indices into ``X``, shape ``(n_pairs, 2)``.
+        xl, xu: Bounds ``(n_var,)``.
     Returns:
-        Indices (ascending) of the ``n`` survivors, their fronts and crowding distances.
+        Children ``(2 * n_pairs, n_var)``: first children of all pairs, then second ones.
     """
-    front = cdp_sort(F, cv)
-    crowd = crowding_per_front(F, front)
-    if n >= len(F):
-        keep = np.arange(len(F))
-    else:
-        last = np.sort(front)[n - 1]
-        kept = np.flatnonzero(front < last)
-        tied = np.flatnonzero(front == last)
-        order = np.argsort(-crowd[tied], kind="stable")
-        keep = np.sort(np.concatenate([kept, tied[order[: n - len(kept)]]]))
-    return keep, front[keep], crowd[keep]
-
-
-def lexicographic_rank(*keys: np.ndarray) -> np.ndarray:
-    """Position of each row sorted by ``keys[0]``, then ``keys[1]``, ... (stable).
-
-    PlatEMO's ``TournamentSelection`` with several fitness columns ranks by ``sortrows``;
-    this rank is the equivalent single fitness (lower is better).
-    """
-    order = np.lexsort(tuple(reversed(keys)))
-    rank = np.empty(len(order), dtype=float)
-    rank[order] = np.arange(len(order))
-    return rank
+    X = np.asarray(X, dtype=float)
+    mates = np.asarray(mates, dtype=int)
+    n_pairs, n_var = len(mates), X.shape[1]
+    parents = np.stack([X[mates[:, 0]], X[mates[:, 1]]])
+    half = np.full((n_pairs, 1), 0.5)
+    Q = cross_sbx(parents, xl, xu, np.full((n_pairs, 1), float(crossover_eta)), half,
+                  half.copy(), random_state=rng)
+    off = Q.reshape(2 * n_pairs, n_var)
+    return mut_pm(off, xl, xu, np.full(len(off), float(mutation_eta)),
+                  np.full(len(off), min(0.5, 1.0 / n_var)), at_least_once=False,
+                  random_state=rng)
 
 
 def de_offspring(base: np.ndarray, r1: np.ndarray, r2: np.ndarray, problem,
