@@ -4,6 +4,8 @@
     python experiments/check_same_archives.py run CHECKOUT OUT_DIR [--only NAME ...]
     # compare two sets of run folders (or two single run folders) bit for bit
     python experiments/check_same_archives.py compare DIR_A DIR_B
+    # the configuration hash of every option, composed by each of two checkouts
+    python experiments/check_same_archives.py hashes CHECKOUT_A CHECKOUT_B
 
 ``run`` starts ``python -m tmopt`` in ``CHECKOUT`` with that checkout first on the
 import path, once per configuration of :data:`RUNS` (small budgets; mw3 and the stiffness
@@ -14,7 +16,9 @@ G, failed, reason, seed and batch arrays (``np.array_equal`` on the raw float64 
 bit for bit, NaN in the same places) and the same ``config_hash`` attribute (so an
 interrupted run of the old code resumes under the new), and that ``metrics.json`` agrees
 in every entry except the wall time. It prints one line per run and exits 1 on any
-difference.
+difference. ``hashes`` composes every problem, algorithm and surrogate option and every
+preset (with the default configuration around it) in each checkout and compares their
+``config_hash``: equal hashes mean that the runs of one resume or are skipped in the other.
 """
 
 from __future__ import annotations
@@ -54,6 +58,30 @@ RUNS: dict[str, list[str]] = {
                                 "algorithm=ctsea", "algorithm.pop_size=20", "budget=60"],
 }
 ARRAYS = ("X", "F", "G", "failed", "reason", "seed", "batch")
+#: Run in a checkout: prints {overrides: config_hash} as JSON for every option. It works
+#: with both layouts (tmopt.run.cli / tmopt.cli before the run package existed).
+HASH_SCRIPT = """
+import json, sys
+from pathlib import Path
+try:
+    from tmopt.run import cli
+    from tmopt.run.config import config_hash
+except ImportError:
+    from tmopt import cli
+    from tmopt.config import config_hash
+from hydra import compose
+out = {}
+combos = [[f"problem={p}"] for p in cli.available("problem")]
+combos += [[f"algorithm={a}", f"problem={p}"] for a in cli.available("algorithm")
+           for p in ("mw3", "stiffness")]
+combos += [[f"surrogate={s}", "problem=mw3"] for s in cli.available("surrogate")]
+combos += [[f"experiment={e}"] for e in cli.available("experiment")]
+combos += [[f"scheme={s}"] for s in cli.available("scheme")]
+with cli._hydra_context():
+    for combo in combos:
+        out[" ".join(combo)] = config_hash(compose(config_name="config", overrides=combo))
+print(json.dumps(out))
+"""
 
 
 def run_all(checkout: Path, out: Path, only: list[str] | None) -> int:
@@ -127,6 +155,24 @@ def compare_all(dir_a: Path, dir_b: Path) -> int:
     return 1 if bad else 0
 
 
+def config_hashes(checkout: Path) -> dict[str, str]:
+    """``{overrides: config_hash}`` of every option as ``checkout``'s code composes it."""
+    env = dict(os.environ, PYTHONPATH=str(checkout.resolve()))
+    done = subprocess.run([sys.executable, "-c", HASH_SCRIPT], cwd=checkout, env=env,
+                          capture_output=True, text=True, check=True)
+    return json.loads(done.stdout)
+
+
+def compare_hashes(checkout_a: Path, checkout_b: Path) -> int:
+    a, b = config_hashes(checkout_a), config_hashes(checkout_b)
+    differ = [k for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
+    for key in differ:
+        print(f"{key:40s} {a.get(key, 'missing')} vs {b.get(key, 'missing')}")
+    print(f"{len(set(a) | set(b)) - len(differ)} of {len(set(a) | set(b))} configurations "
+          "have the same config_hash")
+    return 1 if differ else 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -137,11 +183,16 @@ def main(argv: list[str] | None = None) -> int:
     cmp_ = sub.add_parser("compare", help="compare two run folders or two sets of them")
     cmp_.add_argument("dir_a", type=Path)
     cmp_.add_argument("dir_b", type=Path)
+    hashes = sub.add_parser("hashes", help="compare the config_hash of every option")
+    hashes.add_argument("checkout_a", type=Path)
+    hashes.add_argument("checkout_b", type=Path)
     args = parser.parse_args(argv)
     if args.command == "run":
         if not (args.checkout / "tmopt").is_dir():
             parser.error(f"checkout={args.checkout} is invalid: it must hold the tmopt package")
         return run_all(args.checkout.resolve(), args.out, args.only)
+    if args.command == "hashes":
+        return compare_hashes(args.checkout_a, args.checkout_b)
     return compare_all(args.dir_a, args.dir_b)
 
 

@@ -169,12 +169,14 @@ def test_ga_offspring_two_children_per_pair_within_bounds_and_reproducible():
     X = rng.random((10, 6))
     xl, xu = np.zeros(6), np.ones(6)
     mates = np.array([[0, 1], [2, 3], [4, 5]])
-    a = ga_offspring(X, mates, xl, xu, np.random.default_rng(1))
-    b = ga_offspring(X, mates, xl, xu, np.random.default_rng(1))
+    a = ga_offspring(X, mates, xl, xu, np.random.default_rng(1), crossover_eta=20.0,
+                     mutation_eta=20.0)
+    b = ga_offspring(X, mates, xl, xu, np.random.default_rng(1), crossover_eta=20.0,
+                     mutation_eta=20.0)
     assert a.shape == (6, 6) and np.array_equal(a, b)
     assert np.all((a >= xl) & (a <= xu))
     # identical parents are not crossed (SBX) and mutation changes ~1/n_var of the variables
     same = ga_offspring(np.tile(X[:1], (2, 1)), np.array([[0, 1]] * 200), xl, xu,
-                        np.random.default_rng(2))
+                        np.random.default_rng(2), crossover_eta=20.0, mutation_eta=20.0)
     changed = np.mean(same != X[0])
     assert 0.05 < changed < 0.35

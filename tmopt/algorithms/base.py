@@ -43,15 +43,13 @@ class Algorithm(ABC):
     """Base class of every optimiser in tmopt.
 
     Args:
-        pop_size: Population size (>= 2).
+        pop_size: Population size (>= 2); each algorithm's constructor has its default.
     """
 
     #: Short name used in configs, tables and messages.
     name: str = "algorithm"
-    #: Whether the algorithm fits surrogate models (drives the ``surrogate`` config).
-    uses_surrogate: bool = False
 
-    def __init__(self, pop_size: int = 100) -> None:
+    def __init__(self, *, pop_size: int) -> None:
         self.pop_size = check_int(self.name, "pop_size", pop_size, 2)
         self.problem: ExpensiveProblem | None = None
         self.n_gen = 0

@@ -36,7 +36,7 @@ INFO_FLAGS = {"--help", "-h", "--hydra-help", "--info", "-i", "--cfg", "-c",
               "--shell-completion", "-sc", "--version", "--resolve", "-p", "--package"}
 MULTIRUN_FLAGS = {"-m", "--multirun"}
 
-register_configs()
+register_configs(CONF_DIR)
 
 
 # ---- pre-flight -------------------------------------------------------------------------
@@ -70,6 +70,14 @@ def preflight(args: list[str]) -> int:
 
 def _as_override(ov, value: str) -> str:
     return f"{ov.get_key_element()}={value}"  # the key element keeps its +/++/~ prefix
+
+
+def option_config(group: str, option: str) -> DictConfig:
+    """The node of ``conf/<group>/<option>.yaml`` as Hydra composes it (constructor
+    defaults, then the file), e.g. to build one algorithm outside a run."""
+    with _hydra_context():
+        cfg = compose(config_name="config", overrides=[f"{group}={option}"])
+    return cfg[group]
 
 
 def _check_group_values(key: str, vals: list[str]) -> None:

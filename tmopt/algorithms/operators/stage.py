@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 
-def change_rate(ideal_now: ArrayLike, ideal_before: ArrayLike, sigma: float = 1e-3) -> float:
+def change_rate(ideal_now: ArrayLike, ideal_before: ArrayLike, *, sigma: float) -> float:
     """Maximum relative change mc of the ideal point (seed paper Eq. 20).
 
     mc = max_i |z_i^iter - z_i^(iter-gap)| / max(|z_i^(iter-gap)|, sigma). The absolute

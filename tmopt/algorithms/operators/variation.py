@@ -43,8 +43,8 @@ def unique_rows(A: ArrayLike, decimals: int | None = None) -> np.ndarray:
 
 
 def ga_offspring(X: ArrayLike, mates: ArrayLike, xl: np.ndarray, xu: np.ndarray,
-                 rng: np.random.Generator, crossover_eta: float = 20.0,
-                 mutation_eta: float = 20.0) -> np.ndarray:
+                 rng: np.random.Generator, *, crossover_eta: float,
+                 mutation_eta: float) -> np.ndarray:
     """Two children per mating pair: SBX then polynomial mutation (PlatEMO's OperatorGA).
 
     SBX with probability 1 per pair, each variable crossed with probability 0.5 and the
@@ -57,6 +57,8 @@ def ga_offspring(X: ArrayLike, mates: ArrayLike, xl: np.ndarray, xu: np.ndarray,
         X: Designs ``(n, n_var)``.
         mates: Pairs of row indices into ``X``, shape ``(n_pairs, 2)``.
         xl, xu: Bounds ``(n_var,)``.
+        crossover_eta, mutation_eta: SBX and polynomial-mutation distribution indices
+            (the calling algorithm's settings).
     Returns:
         Children ``(2 * n_pairs, n_var)``: first children of all pairs, then second ones.
     """
@@ -74,8 +76,8 @@ def ga_offspring(X: ArrayLike, mates: ArrayLike, xl: np.ndarray, xu: np.ndarray,
 
 
 def de_offspring(base: np.ndarray, r1: np.ndarray, r2: np.ndarray, problem,
-                 rng: np.random.Generator, f: float = 0.5, cr: float = 1.0,
-                 mutation_eta: float = 20.0) -> np.ndarray:
+                 rng: np.random.Generator, *, f: float = 0.5, cr: float = 1.0,
+                 mutation_eta: float) -> np.ndarray:
     """One child per row: DE/rand/1/bin, v = base + f (r1 - r2), then polynomial mutation.
 
     PlatEMO's ``OperatorDE`` (Storn & Price, J. Glob. Optim. 11, 1997): the donor is
@@ -83,7 +85,9 @@ def de_offspring(base: np.ndarray, r1: np.ndarray, r2: np.ndarray, problem,
     (no forced donor variable, as PlatEMO), then polynomial mutation with probability
     1/n_var per variable (Deb & Goyal 1996). pymoo's kernels ``de_differential`` and
     ``mut_binomial`` are used rather than its ``DEX`` operator, whose bound repair draws
-    from an unseeded generator (pymoo 0.6.2), which would break reproducibility.
+    from an unseeded generator (pymoo 0.6.2), which would break reproducibility. ``f`` and
+    ``cr`` default to ``OperatorDE``'s own values, which CMOES uses as PlatEMO does; SSDE
+    passes its settings.
     """
     n = len(base)
     donor = de_differential(np.stack([base, r1, r2]), f, jitter=False, random_state=rng)
