@@ -2,7 +2,7 @@
 
 Archives made by hand, with numbers chosen so every expected value can be worked out;
 the same view on real sweeps (and its agreement with the final Table 3) is in
-tests/test_sweeps.py.
+tests/run/test_sweeps.py.
 """
 
 from __future__ import annotations

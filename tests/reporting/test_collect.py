@@ -2,7 +2,7 @@
 
 The folders below hold only the files collect reads (metrics.json, failure.json,
 config.yaml, .hydra/overrides.yaml + hydra.yaml), with numbers chosen so every expected
-value can be worked out by hand. Real sweeps through the CLI are in tests/test_sweeps.py.
+value can be worked out by hand. Real sweeps through the CLI are in tests/run/test_sweeps.py.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ Real runs (real stiffness simulations and MW1) with tiny budgets: the Table 3 co
 (algorithms x seeds) through Hydra's basic launcher and the scheme x k command through
 the joblib launcher preset, a run made to fail (a corrupt archive where the run will
 write) and one left incomplete (its metrics.json removed, which is what a run killed
-before its end leaves on disk; tests/test_robustness.py kills runs for real). The same
+before its end leaves on disk; tests/run/test_robustness.py kills runs for real). The same
 Table 3 command is then re-run through joblib: finished runs are skipped and the
 incomplete one resumes, so run folders do not depend on the launcher.
 """
