@@ -19,6 +19,7 @@ from tmopt.run.config import (
     constructor_node,
     constructor_parameters,
     constructor_targets,
+    register_configs,
 )
 
 PACKAGE = Path(__file__).resolve().parents[2] / "tmopt"
@@ -131,3 +132,14 @@ def test_a_required_argument_left_unset_is_one_line():
     node = OmegaConf.create(constructor_node("tmopt.problems.suites.PymooBenchmark"))
     with pytest.raises(ConfigError, match="problem=x: problem.name must be set"):
         check_node("problem", node, "x")
+
+
+def test_an_option_whose_class_cannot_be_imported_breaks_only_itself(tmp_path):
+    (tmp_path / "algorithm").mkdir()
+    (tmp_path / "algorithm" / "broken.yaml").write_text(
+        f"defaults:\n  - /{CONSTRUCTOR_GROUP}/tmopt.algorithms.nope.Nope@_here_\n  - _self_\n")
+    assert constructor_targets(tmp_path) == ["tmopt.algorithms.nope.Nope"]
+    with pytest.raises(ConfigError, match="cannot import the class"):
+        constructor_node("tmopt.algorithms.nope.Nope")
+    register_configs(tmp_path)  # no error at start-up: check_node names it when chosen
+    assert preflight(["algorithm=nsga2", "problem=mw3", "budget=300"]) == 1

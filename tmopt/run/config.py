@@ -15,6 +15,7 @@ constructor's own checks name ranges. (Decision recorded in docs/decisions.md.)
 from __future__ import annotations
 
 import hashlib
+import importlib
 import inspect
 import json
 import re
@@ -105,7 +106,11 @@ def register_configs(conf_dir: str | Path | None = None) -> None:
     if not OmegaConf.has_resolver("tmopt_folder"):
         OmegaConf.register_new_resolver("tmopt_folder", run_folder_name)
     for target in constructor_targets(conf_dir) if conf_dir is not None else ():
-        store.store(group=CONSTRUCTOR_GROUP, name=target, node=constructor_node(target))
+        try:
+            node = constructor_node(target)
+        except ConfigError:  # reported in one line by check_node if the option is chosen
+            node = {"_target_": target}
+        store.store(group=CONSTRUCTOR_GROUP, name=target, node=node)
 
 
 _CONSTRUCTOR_ENTRY = re.compile(rf"^/?{CONSTRUCTOR_GROUP}/(?P<target>[\w.]+)(@\w+)?$")
@@ -126,8 +131,9 @@ def constructor_targets(conf_dir: str | Path) -> list[str]:
 def constructor_node(target: str) -> dict:
     """``_target_`` and every argument of the class's constructor at its default
     (``???`` where it has none), less :data:`BUILT_ARGUMENTS`."""
-    try:
-        cls = get_class(target)
+    module, _, name = target.rpartition(".")
+    try:  # importlib, not hydra's get_class, which logs every failure at start-up
+        cls = getattr(importlib.import_module(module), name)
     except Exception as exc:  # noqa: BLE001
         raise ConfigError(f"{CONSTRUCTOR_GROUP}/{target}: cannot import the class ({exc})") \
             from None
