@@ -58,6 +58,7 @@ HASH_NEUTRAL_ARGUMENTS: dict[tuple[str, str, str], Callable[[dict], bool] | None
     ("problem", "tmopt.problems.suites.PymooBenchmark", "n_obj"): _objectives_fixed,
 }
 
+
 class ConfigError(ValueError):
     """A configuration value is invalid; the message is one line naming it."""
 
@@ -138,9 +139,9 @@ def constructor_node(target: str) -> dict:
         raise ConfigError(f"{CONSTRUCTOR_GROUP}/{target}: cannot import the class ({exc})") \
             from None
     node: dict = {"_target_": target}
-    for name, param in constructor_parameters(cls).items():
-        if name not in BUILT_ARGUMENTS:
-            node[name] = MISSING if param.default is param.empty else _plain(param.default)
+    for arg, param in constructor_parameters(cls).items():
+        if arg not in BUILT_ARGUMENTS:
+            node[arg] = MISSING if param.default is param.empty else _plain(param.default)
     return node
 
 
