@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import numpy as np
 
-from tmopt.mismatch.recording import read_recording
+from tmopt.physics.recording import read_recording
 from tmopt.simulate import Settings, main, run, summary
 
 
@@ -35,3 +38,13 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys):
     assert err.startswith("tmopt.simulate: error: excitation 'bogus:1'") and "\n" not in err
     assert main(["--duration", "-5", "--out", str(tmp_path / "x.h5")]) == 2
     assert "duration" in capsys.readouterr().err
+
+
+def test_the_command_is_physics_only(tmp_path):
+    # python -m tmopt.simulate runs without loading any module of the mismatch tool
+    code = ("import sys\nfrom tmopt.simulate import main\n"
+            f"rc = main(['--duration', '60', '--out', {str(tmp_path / 'r.h5')!r}])\n"
+            "print(rc, sorted(m for m in sys.modules if m.startswith('tmopt.mismatch')))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True)  # fmt: skip
+    assert done.stdout.strip().splitlines()[-1] == "0 []"

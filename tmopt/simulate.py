@@ -6,9 +6,10 @@ by default, or any excitation spec), prints the identification numbers of k1xx a
 standard format (docs/recording-format.md) plus a plot of the motion and the
 identification curves. The recording can go straight into ``python -m tmopt.mismatch``.
 
-Excitation specs, settings and the rescaling of the controller at other sample rates are
-those of the recording generator (:mod:`tmopt.mismatch.generate`), so a simulation here
-and a clean control there are the same run.
+Excitation specs, settings and the sample-rate rule are the scenario's
+(:mod:`tmopt.physics.scenario`), shared with the recording generator and the stiffness
+problem, so a simulation here and a clean control there are the same run.  This command
+is physics only: it imports nothing of the mismatch tool.
 """
 
 from __future__ import annotations
@@ -20,10 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
-from tmopt.mismatch.generate import Settings, excitation, simulation_config
-from tmopt.mismatch.recording import recording_from_simulation, write_recording
 from tmopt.physics import objectives
 from tmopt.physics.geometry import Geometry
+from tmopt.physics.recording import recording_from_simulation, write_recording
+from tmopt.physics.scenario import Settings, excitation, simulation_config
 from tmopt.physics.simulator import SimulationResult, simulate
 
 PARAMETERS = {"k1xx": 0, "k2xx": 1}

@@ -27,8 +27,8 @@ OPTION_FILES = sorted(p for group in ("problem", "algorithm", "surrogate")
                       for p in (CONF_DIR / group).glob("*.yaml"))
 #: Arguments whose default value other signatures repeat for a reason of their own:
 #: ``seed`` 0 is "the first seed" everywhere; the stiffness problem's run length and sample
-#: rate are the paper's scenario, which the physics functions also default to until the
-#: physics owns one scenario definition (issue 21, part 2).
+#: rate are the paper's scenario, which tmopt.physics.scenario and some physics functions
+#: also default to, until the stiffness problem takes them from the scenario.
 OTHER_IDEAS = {"seed", "duration", "sample_rate"}
 
 

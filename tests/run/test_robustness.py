@@ -228,8 +228,8 @@ def test_fuzzed_configuration_values_give_one_line_errors_or_valid_runs():
 
 # ---- bad input: a bounded fuzzing loop over recording bytes ---------------------------
 def _valid_recording_files(tmp_path: Path) -> tuple[Path, Path]:
-    from tmopt.mismatch.recording import recording_from_simulation, write_recording
     from tmopt.physics.excitation import MultiSine
+    from tmopt.physics.recording import recording_from_simulation, write_recording
     from tmopt.physics.simulator import SimulationConfig, simulate
 
     result = simulate(MultiSine(5e-5, 2 * np.pi / 300), MultiSine(3e-5, 2 * np.pi / 500),
@@ -259,7 +259,7 @@ def _mutations(data: bytes, rng: np.random.Generator, n: int):
 
 
 def test_fuzzed_recording_bytes_are_refused_or_read_unchanged(tmp_path):
-    from tmopt.mismatch.recording import Recording, RecordingError, read_recording, validate
+    from tmopt.physics.recording import Recording, RecordingError, read_recording, validate
 
     h5, csv = _valid_recording_files(tmp_path)
     sidecar = csv.with_suffix(".json")

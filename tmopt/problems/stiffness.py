@@ -39,7 +39,8 @@ import numpy as np
 from tmopt.metrics.identification import metric_m_at_threshold
 from tmopt.physics import objectives as phys_obj
 from tmopt.physics.excitation import MultiSine
-from tmopt.physics.simulator import SimulationConfig, SimulationResult, simulate
+from tmopt.physics.scenario import config_at_rate
+from tmopt.physics.simulator import SimulationResult, simulate
 from tmopt.problems.base import ConstraintGroup, ExpensiveProblem
 
 SCHEMES = {
@@ -67,7 +68,9 @@ class StiffnessProblem(ExpensiveProblem):
         epsilon: Convergence threshold of Eq. 18 [s^-2].
         m_weights: Weights of Eq. 29 (time, accuracy).
         duration, sample_rate, controller, f_max, alpha1, gap, alpha2: simulator settings
-            (Sec. 4.1, 4.4): run length [s], sampling [Hz], ``"frbf_pid"`` or ``"pid"``,
+            (Sec. 4.1, 4.4): run length [s], sampling [Hz] (Table 1 noise ASDs and the
+            continuous PID gains kept at any rate: :func:`tmopt.physics.scenario.config_at_rate`),
+            ``"frbf_pid"`` or ``"pid"``,
             F_max [m s^-2], alpha1, electrode gap D [m], alpha2.
         stiffness_1, stiffness_2: True (x, y) stiffness of TM1 and TM2 [s^-2] (Table 1).
         chunk: Designs simulated per call (bounds memory; results do not depend on it).
@@ -109,8 +112,8 @@ class StiffnessProblem(ExpensiveProblem):
         self.noise_seed, self.chunk = int(noise_seed), int(chunk)
         self.epsilon = _positive(name, "epsilon", epsilon)
         self.m_weights = tuple(float(w) for w in m_weights)
-        self.config = SimulationConfig(
-            duration=duration, sample_rate=sample_rate, controller=controller, f_max=f_max,
+        self.config = config_at_rate(  # the one sample-rate rule (noise ASDs, PID gains)
+            sample_rate, duration=duration, controller=controller, f_max=f_max,
             alpha1=alpha1, gap=gap, alpha2=alpha2, record="estimates",
             stiffness_1=tuple(float(v) for v in stiffness_1),
             stiffness_2=tuple(float(v) for v in stiffness_2))

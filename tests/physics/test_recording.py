@@ -8,8 +8,9 @@ import h5py
 import numpy as np
 import pytest
 
-import tmopt.mismatch.recording as recmod
-from tmopt.mismatch.recording import (
+import tmopt.physics.recording as recmod
+from tmopt.physics.excitation import MultiSine
+from tmopt.physics.recording import (
     CHANNEL_SPECS,
     FORMAT,
     OPTIONAL_CHANNELS,
@@ -23,7 +24,6 @@ from tmopt.mismatch.recording import (
     validate,
     write_recording,
 )
-from tmopt.physics.excitation import MultiSine
 from tmopt.physics.simulator import SimulationConfig, simulate
 
 N = 200
