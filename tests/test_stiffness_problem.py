@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
+from tmopt.evaluation.evaluator import Evaluator
 from tmopt.physics import objectives as phys_obj
 from tmopt.physics.excitation import MultiSine
 from tmopt.physics.simulator import SimulationConfig, simulate
-from tmopt.problems.evaluator import Evaluator
 from tmopt.problems.stiffness import StiffnessProblem
 
 SHORT = {"duration": 120.0}
