@@ -37,9 +37,9 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from tmopt.archive import ArchiveError, read_archive  # noqa: E402
+from tmopt.evaluation.archive import ArchiveError, read_archive  # noqa: E402
 from tmopt.reporting.runs import discover_runs  # noqa: E402
-from tmopt.run_lock import LOCK_FILE, lock_holder  # noqa: E402
+from tmopt.run.run_lock import LOCK_FILE, lock_holder  # noqa: E402
 
 N_INIT = 40  # first batch of the MGSAEA family (LHS sample); the job is cancelled after it
 QUICK = {"budget": 300, "seeds": 3}

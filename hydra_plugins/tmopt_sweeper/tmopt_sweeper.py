@@ -3,7 +3,7 @@
 The cartesian product, batching and launching are Hydra's :class:`BasicSweeper`'s. Before
 the first batch is launched every job of the sweep is composed (as the basic sweeper's own
 validation and the launcher compose it) and classified by
-:func:`tmopt.sweep_resume.plan_sweep`; one summary line says what is skipped, resumed and
+:func:`tmopt.run.sweep_resume.plan_sweep`; one summary line says what is skipped, resumed and
 started, and each batch goes to the launcher without its skipped and running jobs.
 """
 
@@ -17,7 +17,7 @@ from typing import Optional
 from hydra._internal.core_plugins.basic_sweeper import BasicSweeper, BasicSweeperConf
 from hydra.core.config_store import ConfigStore
 
-from tmopt.sweep_resume import RunPlan, detail_lines, job_target, plan_sweep, summary_line
+from tmopt.run.sweep_resume import RunPlan, detail_lines, job_target, plan_sweep, summary_line
 
 log = logging.getLogger(__name__)
 
