@@ -157,7 +157,10 @@ def near_optimal_motion(floor: StiffnessFloor, margin: float = 0.8,
                         switch: float | None = None) -> np.ndarray:  # fmt: skip
     """An admissible reference (N,) [m] that comes close to the floor.
 
-    Rise from 0 to ``+x_max``, hold, cross to ``-x_max``, hold.  Each transition of height
+    Rise from 0 to ``+x_max``, hold, cross to ``-x_max``, hold (``x_max`` less 1e-4 of it,
+    room for the loop's tracking error).  It starts at rest by itself, so it is meant to
+    be simulated without a ramp-in (``ramp_in=0``; a ramp would only add acceleration).
+    Each transition of height
     h is a cycloid ``h (s - sin(2 pi s) / (2 pi))``, ``s = t / tau``: it starts and ends
     with zero velocity and acceleration and peaks at ``2 pi h / tau^2 = margin`` times the
     force limit (the rest is room for the controller's tracking).  ``switch`` [s] is the
@@ -168,7 +171,7 @@ def near_optimal_motion(floor: StiffnessFloor, margin: float = 0.8,
         raise ValueError(f"margin must be in (0, 1]; got {margin!r}")
     t = np.arange(floor.n_steps) / floor.sample_rate
     a = margin * floor.force_limit
-    x = floor.x_max
+    x = floor.x_max * (1 - 1e-4)  # 40 nm of room for the tracking error (~10 nm)
 
     def cycloid(start: float, height: float) -> np.ndarray:
         tau = math.sqrt(2 * math.pi * height / a)
