@@ -164,7 +164,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     timings = [] if args.collect_only else run_sweeps(cmds)
     sweep_dir = REPO / "multirun" / args.name
-    from tmopt.collect import collect
+    from tmopt.reporting.collect import collect
 
     collected = sweep_dir / "collected"
     collect(sweep_dir, collected, reference="mgsaea_ipc", fig10=False)

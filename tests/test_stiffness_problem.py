@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
+from tmopt.evaluation.evaluator import Evaluator
 from tmopt.physics import objectives as phys_obj
 from tmopt.physics.excitation import MultiSine
 from tmopt.physics.simulator import SimulationConfig, simulate
-from tmopt.problems.evaluator import Evaluator
 from tmopt.problems.stiffness import StiffnessProblem
 
 SHORT = {"duration": 120.0}
@@ -233,7 +233,7 @@ def test_bad_noise_settings_are_one_line(kwargs, message):
 
 
 def test_extra_metrics_write_heldout_and_floor_blocks():
-    from tmopt.archive import ArchiveData
+    from tmopt.evaluation.archive import ArchiveData
 
     p = StiffnessProblem(scheme="B", n_freq=1, duration=300.0, heldout_seeds=4)
     data = ArchiveData.empty(p.n_var, p.n_obj, p.n_ieq_constr)
@@ -254,7 +254,7 @@ def test_extra_metrics_write_heldout_and_floor_blocks():
 
 
 def test_heldout_seeds_must_not_have_scored_the_search():
-    from tmopt.archive import ArchiveData
+    from tmopt.evaluation.archive import ArchiveData
 
     p = StiffnessProblem(scheme="B", n_freq=1, duration=60.0, heldout_seeds=2)
     data = ArchiveData.empty(p.n_var, p.n_obj, p.n_ieq_constr)

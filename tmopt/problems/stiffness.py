@@ -122,6 +122,7 @@ class StiffnessProblem(ExpensiveProblem):
 
     def __init__(
         self,
+        *,
         scheme: str = "B",
         n_freq: int = 3,
         amplitude_bounds: Sequence[float] = (1e-6, 2e-4),
