@@ -276,3 +276,35 @@ def test_floor_flags_single_draw_accuracies_below_it_as_luck():
     honest = {"final_accuracy_TM1": 2e-10, "convergence_time_TM1": 200.0,
               "convergence_accuracy_TM1": 4e-10, "M_TM1": 7.0}
     assert floor_block(p, None, honest)["below_floor"] == []
+
+
+@pytest.mark.parametrize("mode", ["fixed", "fresh", "average", "information"])
+def test_resume_by_replay_is_exact_in_every_noise_mode(tmp_path, mode):
+    """A run cut after 20 of 40 evaluations and run again ends exactly where the
+    uninterrupted run does: archive (noise seeds included) and held-out scores."""
+    from tmopt.algorithms.nsga2 import NSGA2
+    from tmopt.evaluation.archive import read_archive, write_archive
+    from tmopt.run.runner import run_optimisation
+
+    def go(outdir):
+        p = StiffnessProblem(scheme="B", n_freq=1, duration=60.0, noise=mode, noise_samples=2,
+                             heldout_seeds=2)
+        return run_optimisation(p, NSGA2(pop_size=10), budget=40, seed=5, outdir=outdir,
+                                config_hash="h", progress=False, plots=False,
+                                extra_metrics=p.extra_metrics)
+
+    whole = go(tmp_path / "whole")
+    cut = tmp_path / "cut"
+    first = go(cut)
+    (cut / "metrics.json").unlink()
+    data = read_archive(cut / "archive.h5")
+    write_archive(cut / "archive.h5", data.rows(0, 20), data.attrs)  # killed after 20
+    again = go(cut)
+    assert again.resumed_from == 20
+    a, b = whole.archive, again.archive
+    assert np.array_equal(a.X, b.X) and np.array_equal(a.noise_seeds, b.noise_seeds)
+    assert np.array_equal(a.F, b.F, equal_nan=True) and np.array_equal(a.G, b.G, equal_nan=True)
+    width = {"fixed": 1, "fresh": 1, "average": 2, "information": 0}[mode]
+    assert a.noise_seeds.shape == (40, width)
+    for key in ("chosen", "identification", "heldout", "heldout_front", "floor"):
+        assert again.metrics[key] == whole.metrics[key] == first.metrics[key]
