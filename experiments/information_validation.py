@@ -41,7 +41,7 @@ def references(n: int, cfg) -> list[tuple[str, np.ndarray, np.ndarray]]:
     r1, r2 = study_designs(n)
     out = [("fig6" if i == 0 else f"feasible-{i}", r1.take(i).evaluate(t)[0],
             r2.take(i).evaluate(t)[0]) for i in range(r1.batch_size)]  # fmt: skip
-    x = near_optimal_motion(stiffness_floor(cfg))
+    x = near_optimal_motion(stiffness_floor(cfg, 0, "realised"))
     out.append(("near-optimal", x, np.zeros_like(x)))
     return out
 
@@ -56,7 +56,7 @@ def main() -> None:
     cfg = StiffnessProblem().config  # the problem's physics (ramp-in, RLS columns, ...)
     sigma_e = equation_noise_sigma(cfg)
     seeds = heldout_seeds(args.seeds)
-    floor = stiffness_floor(cfg)
+    floor = stiffness_floor(cfg, 0, "realised")
     rows = []
     t0 = time.perf_counter()
     for name, r1, r2 in references(args.designs, cfg):

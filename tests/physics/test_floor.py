@@ -21,7 +21,7 @@ RAW = replace(CFG, ramp_in=0.0)
 
 
 def test_floor_numbers_follow_from_table1_and_eq20():
-    fl = stiffness_floor(CFG)
+    fl = stiffness_floor(CFG, 0, "realised")
     # the square wave +-alpha2 D from t = 0, no force limit: sigma_e / (|K1| X sqrt(N))
     ideal = equation_noise_sigma(CFG) / (np.sqrt(3) / 4 * 4e-4 * np.sqrt(12000))
     assert ideal == pytest.approx(9.13e-11, rel=1e-3)
@@ -37,15 +37,16 @@ def test_floor_numbers_follow_from_table1_and_eq20():
     # the rate does not move it (per-sample sigmas scale with sqrt(fs))
     from tmopt.physics.scenario import config_at_rate
 
-    assert stiffness_floor(config_at_rate(20.0)).final == pytest.approx(fl.final, rel=2e-3)
+    at20 = stiffness_floor(config_at_rate(20.0), 0, "realised")
+    assert at20.final == pytest.approx(fl.final, rel=2e-3)
     # without the force limit of Eq. 20 (reference mode: F_max) the floor is lower
-    assert stiffness_floor(CFG, constraints="reference").final < fl.final
+    assert stiffness_floor(CFG, 0, "reference").final < fl.final
 
 
 def test_no_admissible_motion_carries_more_information_than_the_envelope():
     """sum x_n^2 of realised motions (a priori feasible designs and the near-optimal
     motion) never exceeds the envelope's at any n."""
-    fl = stiffness_floor(CFG)
+    fl = stiffness_floor(CFG, 0, "realised")
     bound = np.cumsum(fl.envelope() ** 2)
     r1, r2 = study_designs(20)
     res = simulate(r1, r2, replace(CFG, record="full"))
@@ -63,7 +64,7 @@ def test_simulator_over_seeds_lands_on_the_near_optimal_motions_bound_above_the_
     admissible motion.  The rms final error matches that motion's own Cramer-Rao bound
     (within 3 standard errors of an rms estimate, 1/sqrt(2S)) and that bound lies within
     15 % above the floor."""
-    fl = stiffness_floor(CFG)
+    fl = stiffness_floor(CFG, 0, "realised")
     x = near_optimal_motion(fl)
     sigma = equation_noise_sigma(CFG)
     free = simulate(x[None], np.zeros((1, x.size)), replace(noise_free(RAW), record="full"))
@@ -82,8 +83,8 @@ def test_simulator_over_seeds_lands_on_the_near_optimal_motions_bound_above_the_
     ({"idx": 2}, "idx must be 0"), ({"constraints": "both"}, "constraints must be")])
 def test_bad_input_is_one_line(kwargs, message):
     with pytest.raises(ValueError, match=message):
-        stiffness_floor(CFG, **kwargs)
+        stiffness_floor(CFG, **{"idx": 0, "constraints": "realised", **kwargs})
     with pytest.raises(ValueError, match="statistic must be"):
-        stiffness_floor(CFG).convergence_accuracy(100.0, "median")
+        stiffness_floor(CFG, 0, "realised").convergence_accuracy(100.0, "median")
     with pytest.raises(ValueError, match="needs noise"):
-        stiffness_floor(noise_free(CFG))
+        stiffness_floor(noise_free(CFG), 0, "realised")

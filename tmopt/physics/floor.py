@@ -126,12 +126,13 @@ class StiffnessFloor:
         return out
 
 
-def stiffness_floor(config, idx: int = 0, constraints: str = "realised") -> StiffnessFloor:
+def stiffness_floor(config, idx: int, constraints: str) -> StiffnessFloor:
     """The floor of ``k_jj`` (``idx`` 0: k1xx, 1: k2xx) for a simulator configuration.
 
     ``config``: the problem's :class:`~tmopt.physics.simulator.SimulationConfig` (noise,
-    duration, rate, limits, truths); ``constraints``: ``"realised"`` (Eq. 20 on the
-    commanded force, ``alpha1 F_max``) or ``"reference"`` (the actuator's ``F_max``).
+    duration, rate, limits, truths); ``constraints``: where the problem evaluates Eq. 20
+    (its ``constraint_mode``): ``"realised"`` (the commanded force, ``alpha1 F_max``) or
+    ``"reference"`` (the actuator's ``F_max``).
     """
     if idx not in (0, 1):
         raise ValueError(f"idx must be 0 (k1xx) or 1 (k2xx); got {idx!r}")

@@ -305,14 +305,32 @@ def csv_rows(rows: list[dict], metrics: Sequence[Metric], keys: Sequence[str]) -
     return out
 
 
-def paper_comparison(rows: list[dict]) -> tuple[list[str], list[list[str]]]:
-    """Our Table 3 means beside the paper's single values, one line per source."""
+#: Held-out counterparts of Table 3's columns (metrics of HELDOUT_METRICS).
+_HELDOUT_OF = {"convergence_time_TM1": "heldout_convergence_time",
+               "convergence_accuracy_TM1": "heldout_convergence_accuracy",
+               "M_TM1": "heldout_M", "M_TM1@7e-11": "heldout_M(7e-11)",
+               "M_TM1@5e-11": "heldout_M(5e-11)",
+               "final_accuracy_TM1": "heldout_final_accuracy"}
+
+
+def paper_comparison(rows: list[dict], heldout: list[dict] | None = None
+                     ) -> tuple[list[str], list[list[str]]]:  # fmt: skip
+    """Our Table 3 means beside the paper's single values, one line per source: the
+    search draw (``rows``, SEARCH_DRAW_METRICS) and, when given, the held-out scores
+    (``heldout``, the same settings summarised with STIFFNESS_METRICS)."""
     header = ["algorithm", "source", *(h for _, h in TABLE3_COLUMNS)]
     body = []
     for i, row in enumerate(rows):
         algo = row["setting"].get("algorithm", "")
         ours = [fmt_number(row[k][0], _sci(k)) for k, _ in TABLE3_COLUMNS]
-        body.append([label(row["setting"]), f"ours (mean of {row['n_complete']})", *ours])
+        body.append([label(row["setting"]), f"ours, search draw (mean of "
+                     f"{row['n_complete']})", *ours])
+        held = next((h for h in heldout or [] if h["setting"] == row["setting"]), None)
+        if held is not None:
+            body.append([label(row["setting"]), f"ours, held-out (mean of "
+                         f"{held['n_complete']})", *(fmt_number(held[_HELDOUT_OF[k]][0],
+                                                                _sci(k))
+                                                     for k, _ in TABLE3_COLUMNS)])
         last_of_algo = i + 1 == len(rows) or rows[i + 1]["setting"].get("algorithm") != algo
         if algo in PAPER_TABLE3 and last_of_algo:
             paper = [fmt_number(v, _sci(k)) for (k, _), v in zip(TABLE3_COLUMNS,
