@@ -33,7 +33,7 @@ from tmopt.physics import objectives
 from tmopt.physics.control import JACOBIANS
 from tmopt.physics.geometry import Geometry
 from tmopt.physics.recording import recording_from_simulation, write_recording
-from tmopt.physics.scenario import Y_AXES, Settings, excitation, simulation_config
+from tmopt.physics.scenario import Y_AXES, Settings, excitation_axes, simulation_config
 from tmopt.physics.simulator import RLS_COLUMN_SETS, SimulationConfig, SimulationResult, simulate
 
 PARAMETERS = {"k1xx": 0, "k2xx": 1}
@@ -56,8 +56,9 @@ def run(settings: Settings, seed: int = 0, **options: Any) -> SimulationResult:
     physics options ``ramp_in``, ``rls_columns``, ``y_axes``, ``jacobian``); ``options``
     replace fields of ``settings``."""
     settings = replace(settings, **options)
-    ref1, ref2, _ = excitation(settings.excitation, settings.duration, settings.sample_rate)
-    return simulate(ref1[None], ref2[None], config(settings), seed=seed)
+    refs, _ = excitation_axes(settings.excitation, settings.duration, settings.sample_rate)
+    ref_y = (refs[2][None], refs[3][None]) if np.any(refs[2:]) else None
+    return simulate(refs[0][None], refs[1][None], config(settings), seed=seed, ref_y=ref_y)
 
 
 def summary(result: SimulationResult, eps: float = 1e-10) -> dict[str, dict[str, float]]:
@@ -147,7 +148,7 @@ def _parser() -> argparse.ArgumentParser:
     d = Settings()
     p = argparse.ArgumentParser(prog="python -m tmopt.simulate", description=__doc__.split(
         "\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog="excitation specs: paper | multisine:A@P[@phase],...;A@P,... | "
+        epilog="excitation specs: paper | multisine:A@P[@phase],...;A@P,...[;y1 parts;y2 parts] | "
                "chirp:A,f0,f1;A,f0,f1 | steps:A,hold[,ramp];... | none")
     p.add_argument("--excitation", default=d.excitation, help="reference motion spec")
     p.add_argument("--duration", type=float, default=d.duration, help="seconds")

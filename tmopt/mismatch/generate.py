@@ -39,7 +39,7 @@ from tmopt.physics.recording import (
     validate,
     write_recording,
 )
-from tmopt.physics.scenario import Y_AXES, Settings, excitation, simulation_config
+from tmopt.physics.scenario import Y_AXES, Settings, excitation_axes, simulation_config
 from tmopt.physics.simulator import SimulationConfig, simulate
 
 __all__ = ["GenerationError", "generate_recording", "write_generated", "MAGNITUDES",
@@ -103,9 +103,11 @@ def generate_recording(
     n = int(round(st.duration * st.sample_rate))
     builder = Builder(n, st.sample_rate, nominal, int(seed))
     truths = [_effect_truth(inj, effect(inj.name).inject(inj, builder)) for inj in injections]
-    ref1, ref2, exc = excitation(st.excitation, st.duration, st.sample_rate)
+    refs, exc = excitation_axes(st.excitation, st.duration, st.sample_rate)
+    ref_y = (refs[2][None], refs[3][None]) if np.any(refs[2:]) else None
     cfg = simulation_config(st, builder.geometry, **SPACECRAFT_ACCELERATION)
-    res = simulate(ref1[None], ref2[None], cfg, int(seed), builder.perturbations())
+    res = simulate(refs[0][None], refs[1][None], cfg, int(seed), builder.perturbations(),
+                   ref_y=ref_y)
     if res.diverged[0]:
         raise GenerationError(f"the closed loop diverged ({res.reason[0]}) with effects "
                               f"{[(i.name, i.magnitude) for i in injections]}: reduce the "

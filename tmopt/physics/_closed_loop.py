@@ -218,8 +218,8 @@ def _clip1(x):
 
 @register_jitable
 def run_design(
-    i, ref1, ref2, noise, par, c0, b0, out_ch, out_th, out_gain, summary, status, record,
-    pp, ps,
+    i, ref1, ref2, refy, noise, par, c0, b0, out_ch, out_th, out_gain, summary, status,
+    record, pp, ps,
 ):
     """Simulate design ``i`` for ``ref1.shape[1]`` samples and write its outputs.
 
@@ -233,8 +233,11 @@ def run_design(
 
     ``pp`` / ``ps`` carry the instrument perturbations (layout above, meaning in
     ``simulator.Perturbations``); with ``pp[PP_ON] == 0`` none of their code runs.
+    ``refy`` (B, 2, N) are the non-sensitive-axis references of y1, y2 (their loop tracks
+    them like a drag-free suspension with a set point); shape (1, 2, 1) = held at zero.
     """
     n_steps = ref1.shape[1]
+    moves_y = refy.shape[0] == ref1.shape[0] and refy.shape[2] == n_steps
     dt = par[P_DT]
     frbf = par[P_FRBF] > 0.5
     pert = pp[PP_ON] > 0.5
@@ -298,6 +301,9 @@ def run_design(
     for n in range(n_steps):
         ref[0] = ref1[i, n]
         ref[1] = ref2[i, n]
+        if moves_y:
+            ref[2] = refy[i, 0, n]
+            ref[3] = refy[i, 1, n]
         for a in range(4):
             meas_prev[a] = meas[a]
             if pert and pp[PP_READ] > 0.5:
@@ -612,8 +618,8 @@ def _record(i, n, pos_n, meas, acc, u, gains, par, ref, out_ch, out_gain, summar
 
 @nb.njit(parallel=True, cache=True)
 def batch_kernel(
-    ref1, ref2, noise, noise_of, par, c0, b0, out_ch, out_th, out_gain, summary, status,
-    record, pp, ps,
+    ref1, ref2, refy, noise, noise_of, par, c0, b0, out_ch, out_th, out_gain, summary,
+    status, record, pp, ps,
 ):
     """All designs of a batch in parallel (one design per thread iteration).
 
@@ -623,7 +629,7 @@ def batch_kernel(
     """
     for i in nb.prange(ref1.shape[0]):
         run_design(
-            i, ref1, ref2, noise[noise_of[i]], par, c0, b0, out_ch, out_th, out_gain,
+            i, ref1, ref2, refy, noise[noise_of[i]], par, c0, b0, out_ch, out_th, out_gain,
             summary, status, record, pp, ps,
         )
 

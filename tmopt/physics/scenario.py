@@ -31,8 +31,8 @@ from tmopt.physics.geometry import Geometry
 from tmopt.physics.recording import AXES
 from tmopt.physics.simulator import SimulationConfig
 
-__all__ = ["PAPER_RATE", "MIN_SAMPLE_RATE", "Y_AXES", "Settings", "config_at_rate",
-           "simulation_config", "excitation"]  # fmt: skip
+__all__ = ["PAPER_RATE", "MIN_SAMPLE_RATE", "Y_AXES", "Y_GAP", "Settings", "config_at_rate",
+           "simulation_config", "excitation", "excitation_axes"]  # fmt: skip
 
 #: Lowest sample rate of the rule [Hz]: the 10 Hz design's loops, rescaled, are stable
 #: from here to 1 kHz; below, the sample delay u_n -> x_{n+1} destabilises them (poles of
@@ -42,6 +42,11 @@ __all__ = ["PAPER_RATE", "MIN_SAMPLE_RATE", "Y_AXES", "Settings", "config_at_rat
 MIN_SAMPLE_RATE = 1.0
 F_MAX = SimulationConfig.f_max  # actuator limit [m s^-2]
 REF_LIMIT = SimulationConfig.alpha2 * SimulationConfig.gap  # alpha2 D of Eq. 20 [m]
+#: Test-mass-to-electrode gap of the non-sensitive axis y [m]: 2.9 mm in the LISA
+#: Pathfinder gravitational reference sensor (4.0 mm x, 2.9 mm y, 3.5 mm z; Dolesi et al.,
+#: Class. Quantum Grav. 20, S99 (2003)); Eq. 20's alpha2 D on y uses it (docs/design.md).
+Y_GAP = 2.9e-3
+Y_REF_LIMIT = SimulationConfig.alpha2 * Y_GAP
 #: Per-sample noise sigmas of SimulationConfig that follow the rate rule (Table 1 and f_B).
 NOISE_FIELDS = ("sigma_m1", "sigma_m2", "sigma_acc", "sigma_ele", "fb_sigma")
 
@@ -196,7 +201,9 @@ def excitation(spec: str, duration: float, fs: float) -> tuple[np.ndarray, np.nd
 
     * ``paper`` -- Fig. 6: ``5e-5 sin(2 pi t/300)``, ``3e-5 sin(2 pi t/500)``;
     * ``multisine:A@P[@phase],...;A@P,...`` -- Eq. 17 per TM (``;`` separates TM1 from
-      TM2): amplitude A [m], period P [s], phase [rad]; ``x(0) = 0`` as in Eq. 17;
+      TM2): amplitude A [m], period P [s], phase [rad]; ``x(0) = 0`` as in Eq. 17; two
+      more ``;``-groups (``x1;x2;y1;y2``) move the non-sensitive axes too (an empty group
+      or ``0@1`` holds that axis), see :func:`excitation_axes`;
     * ``chirp:A,f0,f1;A,f0,f1`` -- ``A sin(2 pi (f0 t + (f1 - f0) t^2 / (2 T)))`` [Hz];
     * ``steps:A,P[,ramp];A,P[,ramp]`` -- levels +A, -A, +A, ... each held P s, reached by
       raised-cosine ramps of ``ramp`` s (default: the shortest ramp whose peak
@@ -204,8 +211,20 @@ def excitation(spec: str, duration: float, fs: float) -> tuple[np.ndarray, np.nd
     * ``none`` -- no motion (the loop holds both TMs at zero).
 
     Raises ValueError naming the spec when a reference leaves |x| <= 0.4 mm (alpha2 D,
-    Eq. 20), needs more than F_max = 1e-7 m s^-2, or has a tone at/above Nyquist.
+    Eq. 20), needs more than F_max = 1e-7 m s^-2, or has a tone at/above Nyquist; and when
+    the spec moves a non-sensitive axis (those callers need :func:`excitation_axes`).
     """
+    refs, info = excitation_axes(spec, duration, fs)
+    if np.any(refs[2:]):
+        raise ValueError(f"excitation {spec!r}: it moves the non-sensitive axes; this caller "
+                         "takes x1 and x2 only")  # fmt: skip
+    return refs[0], refs[1], info
+
+
+def excitation_axes(spec: str, duration: float, fs: float) -> tuple[np.ndarray, dict]:
+    """References of x1, x2, y1, y2 (4, N) from a spec string (syntax: :func:`excitation`;
+    only ``multisine`` takes the two non-sensitive-axis groups).  The y references obey
+    Eq. 20 with the y gap :data:`Y_GAP` (``|y| <= alpha2 D_y``) and the same F_max."""
     t = np.arange(int(round(duration * fs))) / fs
     kind, _, body = spec.partition(":")
     kind = kind.strip().lower()
@@ -217,21 +236,27 @@ def excitation(spec: str, duration: float, fs: float) -> tuple[np.ndarray, np.nd
         refs, info = makers[kind](body, t, fs)
     except (ValueError, IndexError) as exc:
         raise ValueError(f"excitation {spec!r}: {exc}") from None
-    for k, r in enumerate(refs, start=1):
-        if np.abs(r).max() > REF_LIMIT:
-            raise ValueError(f"excitation {spec!r}: TM{k} reference reaches "
-                             f"{np.abs(r).max():.3g} m > {REF_LIMIT:g} m (alpha2 D, Eq. 20)")
-    return refs[0], refs[1], {"spec": spec, "kind": kind, **info}
+    while len(refs) < 4:
+        refs.append(np.zeros_like(t))
+    names = ("TM1", "TM2", "TM1 y", "TM2 y")
+    for k, r in enumerate(refs):
+        limit = REF_LIMIT if k < 2 else Y_REF_LIMIT
+        if np.abs(r).max() > limit:
+            raise ValueError(f"excitation {spec!r}: {names[k]} reference reaches "
+                             f"{np.abs(r).max():.3g} m > {limit:g} m (alpha2 D, Eq. 20)")
+    return np.array(refs), {"spec": spec, "kind": kind, **info}
 
 
-def _tm_parts(body: str, n_fields: tuple[int, ...]) -> list[list[list[float]]]:
+def _tm_parts(body: str, n_fields: tuple[int, ...],
+              groups: tuple[int, ...] = (2,)) -> list[list[list[float]]]:  # fmt: skip
     tms = body.split(";")
-    if len(tms) != 2:
-        raise ValueError("give both test masses, separated by ';'")
+    if len(tms) not in groups:
+        raise ValueError("give both test masses, separated by ';'" if groups == (2,) else
+                         "give x1;x2 or x1;x2;y1;y2, groups separated by ';'")  # fmt: skip
     out = []
     for tm in tms:
         comps = []
-        for comp in tm.split(","):
+        for comp in (tm.split(",") if tm.strip() else []):
             vals = [float(v) for v in comp.replace("@", " ").split()]
             if len(vals) not in n_fields:
                 raise ValueError(f"component {comp!r} needs {' or '.join(map(str, n_fields))} "
@@ -276,12 +301,13 @@ def _paper(body: str, t: np.ndarray, fs: float) -> tuple[list[np.ndarray], dict]
 
 def _multisine(body: str, t: np.ndarray, fs: float) -> tuple[list[np.ndarray], dict]:
     refs, info = [], {}
-    for k, comps in enumerate(_tm_parts(body, (2, 3)), start=1):
+    keys = ("tm1", "tm2", "tm1_y", "tm2_y")
+    for k, comps in enumerate(_tm_parts(body, (2, 3), (2, 4))):
         x, acc = _sines(comps, t, fs)
-        _check_accel(acc, k)
+        _check_accel(acc, k % 2 + 1)
         refs.append(x)
-        info[f"tm{k}"] = [{"amplitude_m": c[0], "period_s": c[1],
-                           "phase_rad": c[2] if len(c) > 2 else 0.0} for c in comps]  # fmt: skip
+        info[keys[k]] = [{"amplitude_m": c[0], "period_s": c[1],
+                          "phase_rad": c[2] if len(c) > 2 else 0.0} for c in comps]  # fmt: skip
     return refs, info
 
 

@@ -351,6 +351,7 @@ class SimulationResult:
     seed: int
     seeds: np.ndarray | None = None
     perturbations: Perturbations | None = None
+    ref_y: np.ndarray | None = None  # (B, 2, N) y1, y2 set points; None: held at zero
 
     def __getattr__(self, name: str) -> np.ndarray:
         if name in CHANNEL_NAMES:
@@ -433,12 +434,26 @@ def _pack_parameters(cfg: SimulationConfig) -> np.ndarray:
     return par
 
 
+def _references_y(ref_y, t: np.ndarray, cfg: SimulationConfig, b: int) -> np.ndarray:
+    """Non-sensitive-axis references (B, 2, N) of y1, y2, or (1, 2, 1) zeros (held at 0)."""
+    if ref_y is None:
+        return np.zeros((1, 2, 1))
+    if len(ref_y) != 2:
+        raise ValueError("ref_y must be a pair (ref_y1, ref_y2)")
+    ry = [_reference(f"ref_y{k}", r, t, cfg) for k, r in enumerate(ref_y, start=1)]
+    if any(r.shape[0] != b for r in ry):
+        raise ValueError(f"ref_y must hold the {b} designs of ref1; got "
+                         f"{[r.shape[0] for r in ry]}")  # fmt: skip
+    return np.ascontiguousarray(np.stack(ry, axis=1))
+
+
 def prepare(
     ref1: MultiSine | np.ndarray,
     ref2: MultiSine | np.ndarray,
     config: SimulationConfig,
     seed: int,
     perturbations: Perturbations | None = None,
+    ref_y=None,
 ) -> dict:
     """Validated kernel inputs and zeroed outputs (shared by the batch and reference paths)."""
     if not isinstance(config, SimulationConfig):
@@ -449,6 +464,7 @@ def prepare(
         raise ValueError(f"ref1 and ref2 must hold the same number of designs; "
                          f"got {r1.shape[0]} and {r2.shape[0]}")  # fmt: skip
     b, n = r1.shape
+    ry = _references_y(ref_y, t, config, b)
     seeds = _seeds(seed, b)
     unique, noise_of = np.unique(seeds, return_inverse=True)
     record = config.record == "full"
@@ -458,6 +474,7 @@ def prepare(
         "time": t,
         "ref1": r1,
         "ref2": r2,
+        "refy": ry,
         "seeds": seeds,
         "noise": np.stack([noise_realisation(int(s), n, sigmas) for s in unique]),
         "noise_of": np.ascontiguousarray(noise_of.reshape(-1), dtype=np.int64),
@@ -515,10 +532,12 @@ def _finish(io: dict, config: SimulationConfig, seed) -> SimulationResult:
         seed=int(seed) if np.ndim(seed) == 0 else -1,
         seeds=io["seeds"],
         perturbations=io["perturbations"],
+        ref_y=io["refy"] if io["refy"].shape[2] == io["time"].size
+        and io["refy"].shape[0] == io["ref1"].shape[0] else None,
     )
 
 
-_KERNEL_ARGS = ("ref1", "ref2", "noise", "noise_of", "par", "c0", "b0", "out_ch", "out_th",
+_KERNEL_ARGS = ("ref1", "ref2", "refy", "noise", "noise_of", "par", "c0", "b0", "out_ch", "out_th",
                 "out_gain", "summary", "status", "record", "pp", "ps")  # fmt: skip
 
 
@@ -528,6 +547,7 @@ def simulate(
     config: SimulationConfig | None = None,
     seed: int | np.ndarray = 0,
     perturbations: Perturbations | None = None,
+    ref_y=None,
 ) -> SimulationResult:
     """Closed-loop simulation + online identification of B designs at once (compiled).
 
@@ -537,10 +557,12 @@ def simulate(
     depend on the batch it is in), or one integer per design (B,) -- designs x seeds in one
     kernel launch, e.g. a design repeated under K seeds; every row is bit-identical to that
     design run alone with its seed.  ``perturbations`` (default None: the nominal model)
-    injects instrument deviations, see :class:`Perturbations`.
+    injects instrument deviations, see :class:`Perturbations`.  ``ref_y`` (default None:
+    the non-sensitive axes held at zero, as in the paper) = ``(ref_y1, ref_y2)``, each
+    like ``ref1``: set points the y loops track (a non-sensitive-axis excitation).
     """
     config = SimulationConfig() if config is None else config
-    io = prepare(ref1, ref2, config, seed, perturbations)
+    io = prepare(ref1, ref2, config, seed, perturbations, ref_y)
     cl.batch_kernel(*(io[k] for k in _KERNEL_ARGS))
     return _finish(io, config, seed)
 
@@ -551,6 +573,7 @@ def simulate_reference(
     config: SimulationConfig | None = None,
     seed: int | np.ndarray = 0,
     perturbations: Perturbations | None = None,
+    ref_y=None,
 ) -> SimulationResult:
     """The same model run design by design in the plain Python interpreter (slow).
 
@@ -560,9 +583,9 @@ def simulate_reference(
     independent check that compilation does not change the model.
     """
     config = SimulationConfig() if config is None else config
-    io = prepare(ref1, ref2, config, seed, perturbations)
+    io = prepare(ref1, ref2, config, seed, perturbations, ref_y)
     args = [io[k] for k in _KERNEL_ARGS]
-    noise, noise_of = args[2], args[3]
+    noise, noise_of = args[3], args[4]
     for i in range(io["ref1"].shape[0]):
-        cl.run_design(i, *args[:2], noise[noise_of[i]], *args[4:])
+        cl.run_design(i, *args[:3], noise[noise_of[i]], *args[5:])
     return _finish(io, config, seed)

@@ -1,0 +1,161 @@
+"""``python -m tmopt.design RECORDING_OR_REPORT --out DIR``: the excitation that separates
+what a recording could not identify (docs/design.md).
+
+RECORDING (``.h5``/``.hdf5``, or ``.csv`` with its ``.json``) is diagnosed first
+(``python -m tmopt.mismatch``); a REPORT (``report.json`` of that command) gives the
+"not identifiable" list, and its recording (the report's ``source``) the noise level (a
+nominal fit: conservative when effects were selected).  Writes ``next_excitation.json``,
+``design.md`` and ``next_excitation.png`` into DIR.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from tmopt.physics.recording import AXES, RecordingError, read_recording
+
+__all__ = ["main", "add_design_options", "check_design_options", "space_from", "design"]
+
+
+def add_design_options(p: argparse.ArgumentParser) -> None:
+    """The design options (shared with ``python -m tmopt.mismatch --design-next``)."""
+    g = p.add_argument_group("next-excitation design")
+    g.add_argument("--axes", default=",".join(AXES),
+                   help="free axes, comma-separated from x1,x2,y1,y2 (default all)")
+    g.add_argument("--tones", type=int, default=2, help="tones per free axis, 1..6 (2)")
+    g.add_argument("--duration", default="600,2400",
+                   help="identification time range [s] 'lo,hi' (600,2400)")
+    g.add_argument("--effects", default=None,
+                   help="only these flagged effects (comma-separated names; default all)")
+    g.add_argument("--pop-size", type=int, default=40, help="NSGA-II population (40)")
+    g.add_argument("--generations", type=int, default=30, help="NSGA-II generations (30)")
+    g.add_argument("--design-seed", type=int, default=0, help="optimiser seed (0)")
+
+
+def check_design_options(args: argparse.Namespace) -> str | None:
+    """One line naming the bad option and its range, or None (before any work)."""
+    from tmopt.mismatch.effects import EFFECT_NAMES
+
+    axes = [a.strip() for a in args.axes.split(",") if a.strip()]
+    if not axes or any(a not in AXES for a in axes) or len(set(axes)) != len(axes):
+        return f"--axes must be distinct names from {','.join(AXES)}; got {args.axes!r}"
+    if not 1 <= args.tones <= 6:
+        return f"--tones must be in [1, 6]; got {args.tones}"
+    try:
+        lo, hi = (float(v) for v in args.duration.split(","))
+    except ValueError:
+        return f"--duration must be 'lo,hi' in seconds; got {args.duration!r}"
+    if not 60 <= lo <= hi <= 86400:
+        return f"--duration must satisfy 60 <= lo <= hi <= 86400 s; got {args.duration!r}"
+    if args.effects is not None:
+        bad = [e for e in args.effects.split(",") if e not in EFFECT_NAMES]
+        if bad:
+            return f"--effects must be names from {list(EFFECT_NAMES)}; got {bad}"
+    if not 4 <= args.pop_size <= 10000:
+        return f"--pop-size must be in [4, 10000]; got {args.pop_size}"
+    if not 1 <= args.generations <= 10000:
+        return f"--generations must be in [1, 10000]; got {args.generations}"
+    if args.design_seed < 0:
+        return f"--design-seed must be >= 0; got {args.design_seed}"
+    return None
+
+
+def space_from(args: argparse.Namespace):
+    from tmopt.design.problem import DesignSpace
+
+    lo, hi = (float(v) for v in args.duration.split(","))
+    axes = tuple(a.strip() for a in args.axes.split(",") if a.strip())
+    return DesignSpace(axes=axes, tones=args.tones, duration=(lo, hi))
+
+
+def design(dg, args: argparse.Namespace, out: str | Path, source: str = "",
+           notes: list[str] | None = None, plots: bool = True) -> dict:  # fmt: skip
+    """Design the next excitation for diagnosis ``dg`` and write it into ``out``."""
+    from tmopt.design import report
+    from tmopt.design.plan import plan_from_diagnosis
+
+    effects = None if args.effects is None else args.effects.split(",")
+
+    def progress(gen: int, total: int) -> None:
+        print(f"\rdesign: generation {gen}/{total}", end="", file=sys.stderr, flush=True)
+
+    p = plan_from_diagnosis(dg, space_from(args), effects, pop_size=args.pop_size,
+                            generations=args.generations, seed=args.design_seed,
+                            progress=progress)  # fmt: skip
+    print(file=sys.stderr)
+    return report.write(p, out, source or dg.data.source, notes, plots)
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m tmopt.design", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("input", help="recording (.h5/.hdf5/.csv) or a mismatch report.json")
+    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG")
+    add_design_options(p)
+    return p
+
+
+def _diagnosis_from_report(path: Path):
+    """(diagnosis-like object, notes) from a report.json: its flags, its recording's
+    nominal fit for the noise level."""
+    from types import SimpleNamespace
+
+    from tmopt.mismatch.diagnose import Settings, evaluate, fit_state
+    from tmopt.mismatch.fit import align_force_timing, data_from_recording, null_basis
+
+    rep = json.loads(path.read_text())
+    if "not_identifiable" not in rep or "source" not in rep:
+        raise ValueError(f"{path}: not a mismatch report (no 'not_identifiable'/'source')")
+    src = Path(rep["source"])
+    if not src.is_absolute() and not src.exists():
+        src = path.parent / src
+    data = align_force_timing(data_from_recording(read_recording(src)))
+    basis = null_basis(data.geometry)
+    given = rep.get("settings", {})
+    settings = Settings(alpha=given.get("family_alpha", Settings.alpha),
+                        locate_alpha=given.get("locate_alpha", Settings.locate_alpha))
+    state = fit_state(data, basis, [], [], False, settings)
+    # the diagnosis' first step tests every candidate: its Bonferroni count
+    steps = [evaluate(data, basis, state, settings, set())]
+    dg = SimpleNamespace(data=data, basis=basis, after=state, settings=settings,
+                         not_identifiable=rep["not_identifiable"], steps=steps)
+    return dg, [f"noise level from a nominal fit of {src} (the report's recording)"]
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    bad = check_design_options(args)
+    if bad:
+        print(f"error: {bad}", file=sys.stderr)
+        return 2
+    path = Path(args.input)
+    if not path.exists():
+        print(f"error: input {args.input!r} does not exist (a recording or a report.json)",
+              file=sys.stderr)  # fmt: skip
+        return 2
+    notes: list[str] = []
+    try:
+        if path.suffix.lower() == ".json" and not path.with_suffix(".csv").exists():
+            dg, notes = _diagnosis_from_report(path)
+        else:
+            from tmopt.mismatch.diagnose import diagnose
+            from tmopt.mismatch.fit import data_from_recording
+
+            rec = read_recording(path)
+            print("diagnosing the recording ...", file=sys.stderr)
+            dg = diagnose(data_from_recording(rec))
+    except (RecordingError, OSError, ValueError, KeyError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    try:
+        rep = design(dg, args, args.out, str(path), notes, plots=not args.no_plots)
+    except ValueError as exc:  # e.g. nothing to design for
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print(f"next excitation: {rep['excitation']} ({rep['duration_s']:g} s)")
+    print(f"written: {args.out}/next_excitation.json, {args.out}/design.md")
+    return 0

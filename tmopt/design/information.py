@@ -1,0 +1,196 @@
+"""Information of a planned excitation about the stiffness and the suspected effects.
+
+The diagnosis (:mod:`tmopt.mismatch.diagnose`) estimates the nominal parameters and any
+effect by generalised least squares on the two f_B-free combinations of Eq. 10
+(equation group; ``tmopt.mismatch.fit.solve``) and by instrumental variables on the ZOH
+kinematics (kinematic group; ``solve_iv``).  Their covariances depend on the regressors
+and on the noise model only, not on the noise draw (Ljung, *System Identification*, 2nd
+ed., 1999, Sec. 9.3; for IV with the deterministic part of the regressor as instrument,
+``s^2 (Z'X)^-1 Z'Z (X'Z)^-1 -> s^2 (Z'Z)^-1``, Sec. 9.4).  So the standard errors that a
+second recording will give are predicted from
+
+* the regressors of the *planned* motion: one noise-free closed-loop run of the design
+  with the identified model (``tmopt.physics.information.noise_free``), its columns
+  built by the very code of the diagnosis (``nominal_equation_columns`` and each effect's
+  :meth:`~tmopt.mismatch.effects.base.Effect.regressors`), and
+* the noise level estimated from the recording: the diagnosis' spatial equation-noise
+  model (:class:`~tmopt.mismatch.noise_model.SpatialNoise`, white or white + red, defined
+  per sample so any length) and its kinematic spectra
+  (:class:`~tmopt.mismatch.noise_model.SpectralNoise`, re-gridded to the new length).
+
+The information matrix of the whitened, extended regression is ``X_w' X_w`` (Fisher
+information of a Gaussian linear model with unit-variance whitened noise; Fedorov,
+*Theory of Optimal Experiments*, 1972), its inverse the predicted covariance.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from tmopt.mismatch.effects import EFFECTS, Candidate
+from tmopt.mismatch.fit import Column, Data, nominal_equation_columns
+from tmopt.mismatch.noise_model import SpatialNoise, SpectralNoise, taper
+
+__all__ = ["Target", "NoiseLevel", "Prediction", "predict", "candidate_for"]
+
+NOMINAL = ("k1xx", "k2xx", "k1yy", "k2yy", "R1", "R2")
+
+
+@dataclass(frozen=True)
+class Target:
+    """One effect parameter the diagnosis could not identify: ``effect[channel]``, its
+    plausible size (the diagnosis' prior) and why (``not excited`` / ``aliased``)."""
+
+    effect: str
+    channel: str
+    plausible: float
+    reason: str = ""
+    aliased_with: str | None = None
+
+    @property
+    def key(self) -> str:
+        return f"{self.effect}[{self.channel}]"
+
+
+@dataclass
+class NoiseLevel:
+    """Noise models estimated from the recording (diagnosis' final state)."""
+
+    equation: SpatialNoise
+    kinematic: SpectralNoise
+
+    def kinematic_for(self, m: int) -> SpectralNoise:
+        """The kinematic spectra on the rfft grid of length-m series (linear
+        interpolation in cycles/sample: the PSD is a density, independent of the length)."""
+        k = self.kinematic
+        if m == k.m:
+            return k
+        f_old = np.fft.rfftfreq(k.m)
+        f_new = np.fft.rfftfreq(m)
+        psd = np.array([np.interp(f_new, f_old, p) for p in k.psd])
+        return SpectralNoise(psd, m, taper(m))
+
+
+@dataclass
+class Prediction:
+    """Predicted standard errors ``se`` {parameter or target key: value} and, per target,
+    the largest |correlation| of its estimate with a nominal parameter's and that
+    parameter (the aliasing the design should break)."""
+
+    se: dict[str, float]
+    correlation: dict[str, tuple[float, str]]
+
+
+def candidate_for(target: Target, data: Data, basis: np.ndarray,
+                  cache: dict | None = None) -> Candidate:  # fmt: skip
+    """The diagnosis' candidate of ``target`` for ``data`` (the same regressors);
+    ``cache`` keeps each effect's candidates for further targets on the same data."""
+    cache = {} if cache is None else cache
+    if target.effect not in cache:
+        cache[target.effect] = EFFECTS[target.effect].regressors(data, basis)
+    for cand in cache[target.effect]:
+        if cand.channel == target.channel:
+            return cand
+    raise ValueError(f"effect {target.effect!r} has no candidate on channel {target.channel!r}")
+
+
+class _Regressors(Data):
+    """The data with no excitation tones: the kinematic candidates' instruments (the tone
+    part of each regressor, :func:`tmopt.mismatch.fit.tone_instrument`) are then zeros
+    and cost nothing.  The prediction does not use them: for IV with the deterministic
+    part of the regressor as instrument the covariance tends to the least-squares one of
+    that part (module docstring), and a planned noise-free run *is* that part."""
+
+    def tones(self, axis: int) -> list[float]:
+        return []
+
+
+def regressor_data(data: Data) -> Data:
+    """``data`` for regressors only (see :class:`_Regressors`)."""
+    if isinstance(data, _Regressors):
+        return data
+    return _Regressors(**{f.name: getattr(data, f.name) for f in fields(Data)})
+
+
+def _whitened(cols: list[Column], whiten) -> np.ndarray:
+    return np.column_stack([whiten(c.values).ravel() for c in cols])
+
+
+def _inverse(x: np.ndarray) -> np.ndarray:
+    """``(X'X)^-1`` of a column-scaled design (pinv: a column the motion leaves at zero
+    gets an infinite standard error, set below)."""
+    scale = np.sqrt(np.sum(x**2, axis=0))
+    dead = scale == 0
+    scale[dead] = 1.0
+    inv = np.linalg.pinv((x / scale).T @ (x / scale)) / np.outer(scale, scale)
+    inv[dead, :] = np.inf
+    inv[:, dead] = np.inf
+    return inv
+
+
+def predict(data: Data, basis: np.ndarray, targets: list[Target], noise: NoiseLevel) -> Prediction:
+    """Predicted standard errors of the nominal parameters and of every target for the
+    regressors of ``data`` (a recording, or a planned design's noise-free run).
+
+    Equation targets join the nominal columns of Eqs. 12-15 in one GLS design; kinematic
+    targets form the kinematic design (the nominal kinematics has no free parameter).
+    The twin of an accelerometer effect in the kinematic group is left out (a lower bound
+    on its information, so the prediction errs on the safe side).
+    """
+    data = regressor_data(data)
+    eq_cols = nominal_equation_columns(data, basis)
+    kin_cols: list[Column] = []
+    eq_keys, kin_keys = [], []
+    cache: dict = {}
+    for t in targets:
+        cand = candidate_for(t, data, basis, cache)
+        if cand.group == "equation":
+            eq_cols += cand.columns
+            eq_keys.append((t, len(cand.columns)))
+        else:
+            kin_cols += cand.columns
+            kin_keys.append((t, len(cand.columns)))
+    se: dict[str, float] = {}
+    corr: dict[str, tuple[float, str]] = {}
+    x = _whitened(eq_cols, noise.equation.whiten)
+    inv = _inverse(x)
+    for j, name in enumerate(NOMINAL):
+        se[name] = _sd(inv[j, j])
+    j = len(NOMINAL)
+    for t, width in eq_keys:
+        se[t.key] = _combined(inv[j : j + width, j : j + width])
+        c = _corr_row(inv, j)
+        k = int(np.argmax(np.abs(c)))
+        corr[t.key] = (float(abs(c[k])), NOMINAL[k])
+        j += width
+    if kin_cols:
+        kn = noise.kinematic_for(kin_cols[0].values.shape[1])
+        kinv = _inverse(_whitened(kin_cols, kn.whiten))
+        j = 0
+        for t, width in kin_keys:
+            se[t.key] = _combined(kinv[j : j + width, j : j + width])
+            corr[t.key] = (0.0, "")
+            j += width
+    return Prediction(se, corr)
+
+
+def _sd(v: float) -> float:
+    return math.sqrt(v) if np.isfinite(v) and v > 0 else math.inf
+
+
+def _combined(block: np.ndarray) -> float:
+    """Standard error of one reported parameter: a single column's, or the sum of several
+    (as the diagnosis' identifiability check uses for multi-column candidates)."""
+    if block.shape[0] == 1:
+        return _sd(float(block[0, 0]))
+    return _sd(float(np.sum(block)))
+
+
+def _corr_row(inv: np.ndarray, j: int) -> np.ndarray:
+    d = np.diag(inv)[: len(NOMINAL)]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        c = inv[j, : len(NOMINAL)] / np.sqrt(np.maximum(d * inv[j, j], 1e-300))
+    return np.nan_to_num(c, nan=0.0, posinf=0.0, neginf=0.0)

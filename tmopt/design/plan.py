@@ -1,0 +1,176 @@
+"""From a diagnosis to the next excitation: targets, noise, the solve and the choice.
+
+:func:`plan_from_diagnosis` collects what the recording could not identify (the
+diagnosis' "not excited" / "aliased" list), the noise level it measured and the model it
+identified, builds the :class:`~tmopt.design.problem.DesignProblem`, solves it (NSGA-II
+by default: the objectives are cheap, ~0.1 s a design; any pymoo algorithm of the
+framework can be passed) and picks one design:
+
+* among the feasible designs (Eq. 20 on every axis of the realised run), those that make
+  every target detectable (``z sigma <= plausible``, the diagnosis' own criterion) if
+  any; else all feasible designs (the targets' worst ratio then leads the objectives);
+* of those, the one nearest the ideal point after Eq. 21's normalisation
+  ``(f - f_min) / f_min`` over the objectives (``se_k1xx``, the effect ratios, duration).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy import stats
+
+from tmopt.design.information import (
+    NoiseLevel,
+    Prediction,
+    Target,
+    candidate_for,
+    predict,
+    regressor_data,
+)
+from tmopt.design.problem import DesignProblem, DesignSpace
+from tmopt.mismatch.effects import EFFECTS
+from tmopt.mismatch.fit import Data
+
+__all__ = ["Plan", "targets_from", "plan_from_diagnosis", "plan", "choose"]
+
+REASONS = ("not excited", "aliased")
+
+
+@dataclass
+class Plan:
+    """The chosen design and what it is predicted to do."""
+
+    problem: DesignProblem
+    x: np.ndarray
+    spec: str
+    duration: float
+    before: Prediction
+    after: Prediction
+    constraints: np.ndarray
+    objectives: np.ndarray
+    feasible: bool
+    all_detectable: bool
+    n_evaluated: int
+    run: object  # the noise-free SimulationResult of the chosen design
+
+    @property
+    def z(self) -> float:
+        return self.problem.z
+
+
+def targets_from(entries: list[dict], data: Data, basis: np.ndarray,
+                 effects: list[str] | None = None) -> list[Target]:  # fmt: skip
+    """Targets from the diagnosis' ``not_identifiable`` entries: "not excited" or
+    "aliased", with a plausible size, of an effect whose regressors need no residual
+    (profiled effects are searched, not designed for) and that a planned run can show
+    without witness channels (the design moves the test masses, not the spacecraft),
+    optionally only ``effects``."""
+    probe = regressor_data(replace(data, omega=None, omega_dot=None))
+    cache: dict = {}
+    out = []
+    for r in entries:
+        name = r.get("name")
+        if r.get("reason") not in REASONS or r.get("plausible") is None or name not in EFFECTS:
+            continue
+        if effects is not None and name not in effects:
+            continue
+        if EFFECTS[name].profiled:
+            continue
+        t = Target(name, r["channel"], float(r["plausible"]), r["reason"], r.get("aliased_with"))
+        try:
+            candidate_for(t, probe, basis, cache)
+        except ValueError:
+            continue
+        out.append(t)
+    return out
+
+
+def threshold(n_tests: int, alpha: float) -> float:
+    """The diagnosis' detection threshold z (Bonferroni chi^2_1 quantile, square root)."""
+    return math.sqrt(float(stats.chi2.isf(alpha / max(n_tests, 1), 1)))
+
+
+def choose(problem: DesignProblem, x: np.ndarray, f: np.ndarray,
+           g: np.ndarray) -> tuple[int, bool, bool]:  # fmt: skip
+    """Index of the chosen design, whether it is feasible and makes every target
+    detectable (see the module docstring)."""
+    feasible = np.all(g <= 0, axis=1)
+    n_eff = len(problem.effects)
+    ratios = f[:, 1 : 1 + n_eff] if n_eff else np.zeros((f.shape[0], 0))
+    detect = feasible & np.all(ratios * problem.z <= 1.0, axis=1)
+    pool = np.flatnonzero(detect) if detect.any() else np.flatnonzero(feasible)
+    if pool.size == 0:  # nothing feasible: the least violation
+        return int(np.argmin(np.sum(np.maximum(g, 0), axis=1))), False, False
+    fp = f[pool]
+    fmin = np.maximum(fp.min(axis=0), 1e-300)
+    dist = np.sqrt(np.sum(((fp - fmin) / fmin) ** 2, axis=1))  # Eq. 21
+    return int(pool[np.argmin(dist)]), True, bool(detect.any())
+
+
+def plan(problem: DesignProblem, data: Data, pop_size: int = 40, generations: int = 30,
+         seed: int = 0, algorithm=None, progress=None) -> Plan:  # fmt: skip
+    """Solve ``problem`` and choose; ``data`` is the recording (for the "before")."""
+    from pymoo.algorithms.moo.nsga2 import NSGA2
+    from pymoo.optimize import minimize
+
+    algo = NSGA2(pop_size=pop_size) if algorithm is None else algorithm
+    xs, fs, gs = [], [], []
+
+    def keep(alg):
+        pop = alg.pop
+        xs.append(pop.get("X"))
+        fs.append(pop.get("F"))
+        gs.append(pop.get("G"))
+        if progress is not None:
+            progress(alg.n_gen, generations)
+
+    minimize(problem, algo, ("n_gen", generations), seed=seed, callback=keep, verbose=False)
+    x, f, g = np.vstack(xs), np.vstack(fs), np.vstack(gs)
+    i, feasible, detect = choose(problem, x, f, g)
+    duration = problem.space.duration_of(x[i])
+    spec = problem.spec(x[i])
+    run = problem.simulate([spec], duration)
+    after = problem.predictions(run)[0]
+    before = recorded_prediction(problem, data)
+    return Plan(problem, x[i], spec, duration, before, after, problem.constraints(run)[0],
+                problem.objectives(after, duration), feasible, detect, x.shape[0], run)
+
+
+def recorded_prediction(problem: DesignProblem, data: Data) -> Prediction:
+    """The same prediction for the recorded excitation: a noise-free rerun of the recorded
+    references (``ref_x1``/``ref_x2``; y held at zero, as the nominal loop does), so that
+    before and after differ only by the motion.  Without recorded references, the
+    recording's own regressors (noisy: an unexcited axis' noise then counts as motion)."""
+    if data.ref is None:
+        return predict(data, problem.basis, problem.targets, problem.noise)
+    refs = np.zeros((1, 4, data.n))
+    refs[0, :2] = data.ref
+    return problem.predictions(problem.simulate_refs(refs))[0]
+
+
+def plan_from_diagnosis(dg, space: DesignSpace | None = None, effects: list[str] | None = None,
+                        **solve) -> Plan:  # fmt: skip
+    """The next excitation for a :class:`~tmopt.mismatch.diagnose.Diagnosis`."""
+    data, basis = dg.data, dg.basis
+    targets = targets_from(dg.not_identifiable, data, basis, effects)
+    if not targets:
+        raise ValueError("the diagnosis flags no effect parameter as not identifiable: "
+                         "nothing to design for")  # fmt: skip
+    noise = NoiseLevel(dg.after.eq_noise, dg.after.kin_noise)
+    n_tests = len(dg.steps[0]) if dg.steps else 1
+    problem = DesignProblem(targets, noise, data.fs, data.geometry, identified_stiffness(dg),
+                            space=space, z=threshold(n_tests, dg.settings.alpha))  # fmt: skip
+    return plan(problem, data, **solve)
+
+
+def identified_stiffness(dg) -> tuple[float, float, float, float]:
+    """The diagnosis' stiffness estimates, the paper's 1e-7 s^-2 where one is not
+    determined (standard error above its magnitude, e.g. an unexcited y axis)."""
+    fit = dg.after.eq_fit
+    out = []
+    for k in ("k1xx", "k2xx", "k1yy", "k2yy"):
+        v, s = fit.value(k), fit.sigma(k)
+        out.append(v if math.isfinite(v) and s < abs(v) else 1e-7)
+    return tuple(out)

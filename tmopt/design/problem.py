@@ -1,0 +1,234 @@
+"""The next-excitation design problem built from a diagnosis (a tmopt/pymoo Problem).
+
+Decision variables: per free axis (x1, x2, y1, y2; option ``axes``), ``tones`` components
+of Eq. 17's multi-sine -- amplitude as a fraction of the axis' alpha2 D (Eq. 20; the y
+gap is :data:`tmopt.physics.scenario.Y_GAP`), log10 of the period [s], phase [rad] -- and
+the identification time (run duration) [s], rounded to ``duration_step`` so that designs
+of one duration share one simulator batch.  Axes that are not free keep the ``base``
+excitation's motion.
+
+Constraints: Eq. 20 per axis on the *realised* closed-loop motion of the planned run
+(``max |u| <= alpha1 F_max`` and ``max |r| <= alpha2 D``, as
+:func:`tmopt.physics.objectives.eq20_realised` does for the sensitive axes; docs/decisions.md
+"Eq. 20 on the realised motion"), normalised ``value / limit - 1 <= 0``; constraint
+groups TM1 (priority 0, the test mass whose stiffness is identified) and TM2.
+
+Objectives (all minimised): the predicted standard error of k1xx [s^-2]; for each
+suspected effect the diagnosis flagged, the worst over its flagged channels of
+``sigma / plausible`` (the information model of :mod:`tmopt.design.information` at the
+recording's noise level; below ``1 / z`` the effect becomes detectable at the
+diagnosis' Bonferroni threshold z); and the identification time [s].
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from tmopt.design.information import NoiseLevel, Prediction, Target, predict
+from tmopt.mismatch.fit import data_from_result, null_basis
+from tmopt.physics.geometry import Geometry
+from tmopt.physics.information import noise_free
+from tmopt.physics.recording import AXES
+from tmopt.physics.scenario import (
+    REF_LIMIT,
+    Y_REF_LIMIT,
+    Settings,
+    excitation_axes,
+    simulation_config,
+)
+from tmopt.physics.simulator import simulate
+from tmopt.problems.base import ConstraintGroup, ExpensiveProblem
+
+__all__ = ["DesignSpace", "DesignProblem", "AXIS_LIMIT"]
+
+#: alpha2 D of Eq. 20 per axis [m] (x: the paper's 4 mm gap; y: Y_GAP).
+AXIS_LIMIT = {"x1": REF_LIMIT, "x2": REF_LIMIT, "y1": Y_REF_LIMIT, "y2": Y_REF_LIMIT}
+
+
+@dataclass(frozen=True)
+class DesignSpace:
+    """What may vary: free axes, tones per axis, period and duration ranges [s]."""
+
+    axes: tuple[str, ...] = AXES
+    tones: int = 2
+    period: tuple[float, float] = (30.0, 1500.0)
+    duration: tuple[float, float] = (600.0, 2400.0)
+    duration_step: float = 60.0
+    base: str = "paper"
+
+    def __post_init__(self) -> None:
+        bad = [a for a in self.axes if a not in AXES]
+        if not self.axes or bad or len(set(self.axes)) != len(self.axes):
+            raise ValueError(f"axes must be distinct names from {list(AXES)}; got "
+                             f"{list(self.axes)}")  # fmt: skip
+        if not (isinstance(self.tones, int) and 1 <= self.tones <= 6):
+            raise ValueError(f"tones must be an integer in [1, 6]; got {self.tones!r}")
+        lo, hi = self.period
+        if not (0 < lo < hi):
+            raise ValueError(f"period must be a range 0 < lo < hi [s]; got {self.period!r}")
+        lo, hi = self.duration
+        if not (0 < lo <= hi and self.duration_step > 0):
+            raise ValueError(f"duration must be a range 0 < lo <= hi [s] and duration_step "
+                             f"> 0; got {self.duration!r}, {self.duration_step!r}")  # fmt: skip
+
+    @property
+    def n_var(self) -> int:
+        return 3 * self.tones * len(self.axes) + 1
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        per = [(0.0, 1.0), (math.log10(self.period[0]), math.log10(self.period[1])),
+               (0.0, 2 * math.pi)]  # fmt: skip
+        lo = [b[0] for _ in self.axes for _ in range(self.tones) for b in per]
+        hi = [b[1] for _ in self.axes for _ in range(self.tones) for b in per]
+        d0, d1 = self.duration
+        return np.array(lo + [d0]), np.array(hi + [max(d1, d0 + 1e-9)])
+
+    def duration_of(self, x: np.ndarray) -> float:
+        d0, d1 = self.duration
+        step = self.duration_step
+        return float(np.clip(round(x[-1] / step) * step, d0, d1))
+
+    def spec(self, x: np.ndarray, base_parts: dict[str, str]) -> str:
+        """Decision vector -> the excitation spec of ``python -m tmopt.simulate``
+        (``multisine:x1;x2;y1;y2``), free axes from ``x``, the others from the base."""
+        parts = dict(base_parts)
+        k = 0
+        for a in self.axes:
+            comps = []
+            for _ in range(self.tones):
+                frac, logp, ph = x[k : k + 3]
+                k += 3
+                amp = float(frac) * AXIS_LIMIT[a] / 2  # |x| <= 2A with x(0) = 0 (Eq. 17)
+                if amp > 0:
+                    comps.append(f"{amp:.6g}@{10 ** float(logp):.6g}@{float(ph):.6g}")
+            parts[a] = ",".join(comps)
+        return "multisine:" + ";".join(parts[a] for a in AXES)
+
+
+def base_parts(spec: str, duration: float, fs: float) -> dict[str, str]:
+    """Per-axis multi-sine groups of a base excitation (``paper`` or ``multisine:``)."""
+    _, info = excitation_axes(spec, duration, fs)
+    keys = {"x1": "tm1", "x2": "tm2", "y1": "tm1_y", "y2": "tm2_y"}
+    out = {}
+    for a, key in keys.items():
+        comps = info.get(key, [])
+        if not isinstance(comps, list):
+            raise ValueError(f"base excitation {spec!r} must be 'paper' or 'multisine:...'")
+        out[a] = ",".join(f"{c['amplitude_m']:.6g}@{c['period_s']:.6g}@{c['phase_rad']:.6g}"
+                          for c in comps)  # fmt: skip
+    return out
+
+
+class DesignProblem(ExpensiveProblem):
+    """Next excitation for ``targets`` (see the module docstring).
+
+    Args:
+        targets: Effect parameters the diagnosis could not identify.
+        noise: Noise models estimated from the recording.
+        sample_rate: Of the planned run [Hz] (the recording's).
+        geometry: Nominal geometry (the recording's attributes).
+        stiffness, bias: The identified model the planned run is simulated with.
+        space: The design space.
+        z: The diagnosis' detection threshold (sqrt of the Bonferroni chi^2_1 quantile).
+        controller, ramp_in: Physics options of the planned run.
+    """
+
+    def __init__(self, targets: Sequence[Target], noise: NoiseLevel, sample_rate: float = 10.0,
+                 geometry: Geometry | None = None,
+                 stiffness: tuple[float, float, float, float] = (1e-7, 1e-7, 1e-7, 1e-7),
+                 bias: tuple[float, float, float, float] = (1e-10, 1e-10, 1e-10, 1e-10),
+                 space: DesignSpace | None = None, z: float = 4.0,
+                 controller: str = "frbf_pid", ramp_in: float = 90.0) -> None:  # fmt: skip
+        self.targets = list(targets)
+        self.noise = noise
+        self.space = DesignSpace() if space is None else space
+        self.geometry = Geometry() if geometry is None else geometry
+        self.z = float(z)
+        self.settings = Settings(duration=self.space.duration[1], sample_rate=sample_rate,
+                                 controller=controller, stiffness=tuple(stiffness),
+                                 bias=tuple(bias), ramp_in=ramp_in)  # fmt: skip
+        self.base = base_parts(self.space.base, self.space.duration[1], sample_rate)
+        self.basis = null_basis(self.geometry)
+        self.effects = sorted({t.effect for t in self.targets})
+        names = ["se_k1xx"] + [f"ratio_{e}" for e in self.effects] + ["duration_s"]
+        cons = [f"eq20_{kind}_{a}" for a in AXES for kind in ("force", "position")]
+        # constraint columns: 2 per axis in AXES order (x1, x2, y1, y2)
+        groups = [ConstraintGroup("TM1", (0, 1, 4, 5), 0), ConstraintGroup("TM2", (2, 3, 6, 7), 1)]
+        lo, hi = self.space.bounds()
+        super().__init__(n_var=self.space.n_var, n_obj=len(names), n_ieq_constr=8, xl=lo,
+                         xu=hi, name="next_excitation", constraint_groups=groups,
+                         objective_names=names, constraint_names=cons)  # fmt: skip
+
+    # ------------------------------------------------------------------ one design
+
+    def spec(self, x: np.ndarray) -> str:
+        return self.space.spec(np.asarray(x, float), self.base)
+
+    def simulate(self, specs: Sequence[str], duration: float):
+        """Noise-free closed-loop runs of ``specs`` (one duration), batched."""
+        fs = self.settings.sample_rate
+        return self.simulate_refs(np.array([_unchecked_refs(s, duration, fs) for s in specs]))
+
+    def simulate_refs(self, refs: np.ndarray):
+        """Noise-free closed-loop runs of references (B, 4, N) at the recording's rate."""
+        duration = refs.shape[2] / self.settings.sample_rate
+        cfg = noise_free(simulation_config(replace(self.settings, duration=duration),
+                                           self.geometry))  # fmt: skip
+        return simulate(refs[:, 0], refs[:, 1], cfg, 0, ref_y=(refs[:, 2], refs[:, 3]))
+
+    def predictions(self, result) -> list[Prediction]:
+        out = []
+        for i in range(result.batch_size):
+            data = data_from_result(result, i)
+            out.append(predict(data, self.basis, self.targets, self.noise))
+        return out
+
+    def constraints(self, result) -> np.ndarray:
+        """Eq. 20 per axis on the realised run, ``value / limit - 1`` (B, 8)."""
+        cfg = result.config
+        x, u = result.max_abs_position, result.max_abs_command
+        cols = []
+        for k, a in enumerate(AXES):
+            cols.append(u[:, k] / (cfg.alpha1 * cfg.f_max) - 1)
+            cols.append(x[:, k] / AXIS_LIMIT[a] - 1)
+        g = np.stack(cols, axis=1)
+        return np.where(result.diverged[:, None], np.maximum(g, 1.0), g)
+
+    def objectives(self, pred: Prediction, duration: float) -> np.ndarray:
+        row = [pred.se["k1xx"]]
+        for e in self.effects:
+            row.append(max(pred.se[t.key] / t.plausible for t in self.targets if t.effect == e))
+        row.append(duration)
+        return np.array(row)
+
+    def _evaluate(self, x, out, *args, **kwargs):
+        x = np.atleast_2d(np.asarray(x, float))
+        f = np.empty((x.shape[0], self.n_obj))
+        g = np.empty((x.shape[0], self.n_ieq_constr))
+        durations = np.array([self.space.duration_of(r) for r in x])
+        for d in np.unique(durations):
+            rows = np.flatnonzero(durations == d)
+            res = self.simulate([self.spec(x[i]) for i in rows], float(d))
+            g[rows] = self.constraints(res)
+            for i, pred in zip(rows, self.predictions(res)):
+                f[i] = self.objectives(pred, float(d))
+        out["F"] = f
+        out["G"] = g
+
+
+def _unchecked_refs(spec: str, duration: float, fs: float) -> np.ndarray:
+    """References (4, N) of a multi-sine spec without Eq. 20's checks (the problem scores
+    violations as constraints instead of refusing the design)."""
+    from tmopt.physics.scenario import _sines  # one implementation of Eq. 17
+
+    t = np.arange(int(round(duration * fs))) / fs
+    body = spec.partition(":")[2]
+    out = []
+    for group in body.split(";"):
+        comps = [[float(v) for v in c.split("@")] for c in group.split(",") if c.strip()]
+        out.append(_sines(comps, t, fs)[0])
+    return np.array(out)
