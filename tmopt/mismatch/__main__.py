@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from tmopt.design.cli import add_design_options, check_design_options
 from tmopt.mismatch.calibration import FAMILY_ALPHA, LOCATE_ALPHA
 from tmopt.mismatch.diagnose import Settings, diagnose
 from tmopt.mismatch.fit import data_from_recording
@@ -24,6 +25,9 @@ def _parser() -> argparse.ArgumentParser:
                    help=f"family-wise level of the locate step (default {LOCATE_ALPHA})")
     p.add_argument("--max-effects", type=int, default=4, help="most effects to add (4)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    p.add_argument("--design-next", action="store_true",
+                   help="also design the next excitation into --out (python -m tmopt.design)")
+    add_design_options(p)
     return p
 
 
@@ -34,6 +38,9 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if args.max_effects < 0:
         print("error: --max-effects must be >= 0", file=sys.stderr)
+        return 2
+    if args.design_next and check_design_options(args):
+        print(f"error: {check_design_options(args)}", file=sys.stderr)
         return 2
     try:
         rec = read_recording(args.recording)
@@ -46,6 +53,15 @@ def main(argv: list[str] | None = None) -> int:
     rep = write_report(dg, args.out, plots=not args.no_plots)
     print(rep["conclusion"])
     print(f"report: {args.out}/report.md, {args.out}/report.json")
+    if args.design_next:
+        from tmopt.design.cli import design
+
+        try:
+            nxt = design(dg, args, args.out, args.recording, plots=not args.no_plots)
+        except ValueError as exc:  # nothing the recording left unidentified
+            print(f"next excitation: none ({exc})")
+            return 0
+        print(f"next excitation: {nxt['excitation']} ({args.out}/next_excitation.json)")
     return 0
 
 
