@@ -1,8 +1,10 @@
 """The next-excitation design problem built from a diagnosis (a tmopt/pymoo Problem).
 
 Decision variables: per free axis (x1, x2, y1, y2; option ``axes``), ``tones`` components
-of Eq. 17's multi-sine -- amplitude as a fraction of the axis' alpha2 D (Eq. 20; the y
-gap is :data:`tmopt.physics.scenario.Y_GAP`), log10 of the period [s], phase [rad] -- and
+of Eq. 17's multi-sine -- amplitude as a fraction of the largest that Eq. 20 allows a
+priori for that tone, ``min(alpha2 D / (2 k), alpha1 F_max / (k w^2))`` with k tones
+(``|x| <= 2 sum A`` since x(0) = 0; the y gap is :data:`tmopt.physics.scenario.Y_GAP`),
+so every design is a valid excitation spec; log10 of the period [s]; phase [rad] -- and
 the identification time (run duration) [s], rounded to ``duration_step`` so that designs
 of one duration share one simulator batch.  Axes that are not free keep the ``base``
 excitation's motion.
@@ -40,13 +42,15 @@ from tmopt.physics.scenario import (
     excitation_axes,
     simulation_config,
 )
-from tmopt.physics.simulator import simulate
+from tmopt.physics.simulator import SimulationConfig, simulate
 from tmopt.problems.base import ConstraintGroup, ExpensiveProblem
 
 __all__ = ["DesignSpace", "DesignProblem", "AXIS_LIMIT"]
 
 #: alpha2 D of Eq. 20 per axis [m] (x: the paper's 4 mm gap; y: Y_GAP).
 AXIS_LIMIT = {"x1": REF_LIMIT, "x2": REF_LIMIT, "y1": Y_REF_LIMIT, "y2": Y_REF_LIMIT}
+#: alpha1 F_max of Eq. 20 [m s^-2].
+ALPHA1_FMAX = SimulationConfig.alpha1 * SimulationConfig.f_max
 
 
 @dataclass(frozen=True)
@@ -102,7 +106,9 @@ class DesignSpace:
             for _ in range(self.tones):
                 frac, logp, ph = x[k : k + 3]
                 k += 3
-                amp = float(frac) * AXIS_LIMIT[a] / 2  # |x| <= 2A with x(0) = 0 (Eq. 17)
+                w = 2 * math.pi / 10 ** float(logp)
+                amp = float(frac) * min(AXIS_LIMIT[a] / (2 * self.tones),
+                                        ALPHA1_FMAX / (self.tones * w * w))
                 if amp > 0:
                     comps.append(f"{amp:.6g}@{10 ** float(logp):.6g}@{float(ph):.6g}")
             parts[a] = ",".join(comps)
