@@ -252,7 +252,8 @@ def _tm_parts(body: str, n_fields: tuple[int, ...],
     tms = body.split(";")
     if len(tms) not in groups:
         raise ValueError("give both test masses, separated by ';'" if groups == (2,) else
-                         "give x1;x2 or x1;x2;y1;y2, groups separated by ';'")  # fmt: skip
+                         "give both test masses, separated by ';' (x1;x2), or the four "
+                         "axes x1;x2;y1;y2")  # fmt: skip
     out = []
     for tm in tms:
         comps = []
