@@ -150,7 +150,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--pop-size", type=int, default=20)
     ap.add_argument("--generations", type=int, default=8)
     ap.add_argument("--out", default="outputs/design_next_loop")
+    ap.add_argument("--collect", default=None,
+                    help="only merge the loop.json files under this folder (runs split over "
+                         "processes) into --out's loop.csv and loop.md")  # fmt: skip
     args = ap.parse_args(argv)
+    if args.collect is not None:
+        rows = [r for f in sorted(Path(args.collect).rglob("loop.json"))
+                for r in json.loads(f.read_text())]  # fmt: skip
+        return _write(rows, Path(args.out))
     names = args.effects.split(",")
     bad = [n for n in names if n not in CASES]
     if bad or args.seeds < 1:
@@ -169,6 +176,11 @@ def main(argv: list[str] | None = None) -> int:
                   f"{row['k1xx_err_first']:.3g}->{row.get('k1xx_err_second', math.nan):.3g} "
                   f"({time.time() - t0:.0f} s)", flush=True)
             (out / "loop.json").write_text(json.dumps(rows, indent=1, default=str))
+    return _write(rows, out)
+
+
+def _write(rows: list[dict], out: Path) -> int:
+    out.mkdir(parents=True, exist_ok=True)
     keys = sorted({k for r in rows for k in r})
     with open(out / "loop.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, keys)
