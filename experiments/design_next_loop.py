@@ -83,7 +83,7 @@ def one(name: str, seed: int, args) -> dict:
     row["first_flag"] = _flagged(dg1, name, channel) or "identifiable"
     row["first_named"] = _entry(rep1, name, channel) is not None
     row["k1xx_err_first"] = abs(rep1["stiffness"]["after"]["k1xx"] - K1XX)
-    space = DesignSpace(duration=(600.0, 2400.0))
+    space = DesignSpace(duration=(600.0, args.max_duration))
     p = plan_from_diagnosis(dg1, space, pop_size=args.pop_size, generations=args.generations,
                             seed=seed)  # fmt: skip
     row.update(excitation=p.spec, duration=p.duration, feasible=p.feasible,
@@ -149,6 +149,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--effects", default=",".join(CASES))
     ap.add_argument("--pop-size", type=int, default=20)
     ap.add_argument("--generations", type=int, default=8)
+    ap.add_argument("--max-duration", type=float, default=1200.0,
+                    help="longest second recording [s] (the design's time range is 600..this)")
     ap.add_argument("--out", default="outputs/design_next_loop")
     ap.add_argument("--collect", default=None,
                     help="only merge the loop.json files under this folder (runs split over "
