@@ -1,0 +1,109 @@
+"""The next-excitation problem: vectorised, constraint groups, valid specs, and its
+predicted standard errors against Monte Carlo over simulator noise seeds (an independent
+path: noisy closed-loop runs fitted by the diagnosis' own GLS)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tmopt.design.information import NoiseLevel, Target, predict
+from tmopt.design.plan import choose
+from tmopt.design.problem import DesignProblem, DesignSpace, _unchecked_refs
+from tmopt.mismatch.diagnose import Settings, fit_state
+from tmopt.mismatch.effects import EFFECTS
+from tmopt.mismatch.fit import data_from_result, null_basis
+from tmopt.physics.geometry import Geometry
+from tmopt.physics.information import noise_free
+from tmopt.physics.scenario import Settings as RunSettings
+from tmopt.physics.scenario import excitation_axes, simulation_config
+from tmopt.physics.simulator import Perturbations, simulate
+
+SPEC = "multisine:5e-5@300;3e-5@500;6e-5@400;"
+DURATION = 400.0
+COUPLING = 3e-7  # x1 <- y1 [s^-2]
+TARGET = Target("stiffness_cross_coupling", "x1<-y1", 1e-6)
+
+
+def _runs(seeds, noise=True):
+    refs, _ = excitation_axes(SPEC, DURATION, 10.0)
+    cfg = simulation_config(RunSettings(duration=DURATION), Geometry())
+    if not noise:
+        cfg = noise_free(cfg)
+    c = np.zeros((4, 4))
+    c[0, 2] = COUPLING
+    b = len(seeds)
+    rep = [np.repeat(r[None], b, axis=0) for r in refs]
+    return simulate(rep[0], rep[1], cfg, np.asarray(seeds), Perturbations(stiffness_coupling=c),
+                    ref_y=(rep[2], rep[3]))  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def monte_carlo():
+    """16 noise seeds in one kernel launch, each fitted with nominal + the coupling."""
+    res = _runs(list(range(100, 116)))
+    est, noise = [], None
+    for i in range(res.batch_size):
+        d = data_from_result(res, i)
+        basis = null_basis(d.geometry)
+        col = EFFECTS["stiffness_cross_coupling"].regressors(d, basis)[0].columns
+        st = fit_state(d, basis, col, [], False, Settings())
+        est.append([st.eq_fit.coef[0], st.eq_fit.coef[-1]])
+        noise = noise or NoiseLevel(st.eq_noise, st.kin_noise)
+    return np.array(est), noise
+
+
+def test_predicted_standard_errors_match_monte_carlo(monte_carlo):
+    est, noise = monte_carlo
+    d = data_from_result(_runs([0], noise=False), 0)
+    pred = predict(d, null_basis(d.geometry), [TARGET], noise)
+    sd = est.std(axis=0, ddof=1)
+    ratio = sd / np.array([pred.se["k1xx"], pred.se[TARGET.key]])
+    # 16 seeds: s/sigma lies in [0.65, 1.35] with probability > 0.99 (chi^2_15)
+    print("Monte Carlo sd / predicted se (k1xx, coupling):", ratio)
+    assert np.all((ratio > 0.65) & (ratio < 1.35)), ratio
+    # and the estimates are unbiased at that precision
+    assert abs(est[:, 1].mean() - COUPLING) < 4 * pred.se[TARGET.key] / np.sqrt(len(est))
+
+
+@pytest.fixture(scope="module")
+def problem(monte_carlo):
+    space = DesignSpace(axes=("x1", "y1"), tones=1, duration=(300.0, 360.0))
+    return DesignProblem([TARGET, Target("cubic_stiffness", "y1", 1e3)], monte_carlo[1],
+                         space=space, z=4.0)  # fmt: skip
+
+
+def test_problem_is_vectorised_and_grouped(problem):
+    rng = np.random.default_rng(3)
+    x = problem.xl + rng.random((5, problem.n_var)) * (problem.xu - problem.xl)
+    x[:2, -1] = 300.0
+    x[2:, -1] = 360.0  # two durations: two simulator batches
+    out = problem.evaluate(x, return_as_dictionary=True)
+    assert out["F"].shape == (5, problem.n_obj) and out["G"].shape == (5, 8)
+    for i in (0, 3):
+        one = problem.evaluate(x[i : i + 1], return_as_dictionary=True)
+        np.testing.assert_allclose(one["F"][0], out["F"][i], rtol=1e-9)
+        np.testing.assert_allclose(one["G"][0], out["G"][i], rtol=1e-9, atol=1e-12)
+    assert problem.objective_names == ["se_k1xx", "ratio_cubic_stiffness",
+                                       "ratio_stiffness_cross_coupling", "duration_s"]
+    groups = {g.name: (g.indices, g.priority) for g in problem.constraint_groups}
+    assert groups == {"TM1": ((0, 1, 4, 5), 0), "TM2": ((2, 3, 6, 7), 1)}
+    assert sorted(i for g in problem.constraint_groups for i in g.indices) == list(range(8))
+
+
+def test_every_design_is_a_valid_excitation_spec(problem):
+    rng = np.random.default_rng(4)
+    for x in problem.xl + rng.random((20, problem.n_var)) * (problem.xu - problem.xl):
+        spec = problem.spec(x)
+        refs, info = excitation_axes(spec, 360.0, 10.0)  # raises if Eq. 20 fails a priori
+        np.testing.assert_array_equal(refs, _unchecked_refs(spec, 360.0, 10.0))
+        assert not info["tm2_y"]  # y2 is not free: the base (paper) holds it
+
+
+def test_choose_prefers_detectable_feasible_then_eq21(problem):
+    f = np.array([[1e-10, 0.5, 0.5, 600], [1e-11, 0.01, 0.01, 600], [1e-12, 0.01, 0.01, 600],
+                  [1e-10, 0.01, 0.01, 1200]])  # fmt: skip
+    g = np.zeros((4, 8))
+    g[2, 3] = 0.1  # the best one violates Eq. 20
+    i, feasible, detect = choose(problem, np.zeros((4, problem.n_var)), f, g)
+    assert (i, feasible, detect) == (1, True, True)
