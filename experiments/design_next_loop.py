@@ -38,7 +38,7 @@ import numpy as np
 
 from tmopt.design.information import NoiseLevel, Target, predict
 from tmopt.design.plan import plan_from_diagnosis
-from tmopt.design.problem import DesignSpace
+from tmopt.design.problem import DesignSpace, resolved_tones
 from tmopt.mismatch.diagnose import diagnose
 from tmopt.mismatch.effects import Injection
 from tmopt.mismatch.fit import data_from_recording, data_from_result
@@ -100,7 +100,8 @@ def one(name: str, seed: int, args) -> dict:
                all_detectable=p.all_detectable, n_targets=len(p.problem.targets))
     target = Target(name, channel, 1.0)
     noise = NoiseLevel(dg1.after.eq_noise, dg1.after.kin_noise)
-    alone = predict(data_from_result(p.run, 0), p.problem.basis, [target], noise)
+    alone = predict(data_from_result(p.run, 0), p.problem.basis, [target], noise,
+                    resolved_tones(p.spec, p.duration))
     row["se_predicted"] = alone.se[target.key]
     row["se_predicted_joint"] = p.after.se.get(target.key, math.nan)
     row["k_se_predicted"] = alone.se[k]

@@ -33,6 +33,7 @@ import numpy as np
 from tmopt.mismatch.effects import EFFECTS, Candidate
 from tmopt.mismatch.fit import Column, Data, nominal_equation_columns
 from tmopt.mismatch.noise_model import SpatialNoise, SpectralNoise, taper
+from tmopt.physics.recording import AXES
 
 __all__ = ["Target", "NoiseLevel", "Prediction", "predict", "candidate_for"]
 
@@ -98,21 +99,36 @@ def candidate_for(target: Target, data: Data, basis: np.ndarray,
 
 
 class _Regressors(Data):
-    """The data with no excitation tones: the kinematic candidates' instruments (the tone
-    part of each regressor, :func:`tmopt.mismatch.fit.tone_instrument`) are then zeros
-    and cost nothing.  The prediction does not use them: for IV with the deterministic
-    part of the regressor as instrument the covariance tends to the least-squares one of
-    that part (module docstring), and a planned noise-free run *is* that part."""
+    """The data with excitation tones only on the axes that drive a target
+    (``_instrumented``), found as the diagnosis finds them (:meth:`Data.tones`: from the
+    reference on x, from the readout on y).  The kinematic candidates' instruments (the
+    tone part of each regressor, :func:`tmopt.mismatch.fit.tone_instrument`) of the other
+    axes are then zeros and cost nothing; they are not used."""
 
     def tones(self, axis: int) -> list[float]:
-        return []
+        if axis not in self.__dict__.get("_instrumented", ()):
+            return []
+        known = self.__dict__.get("_known")
+        if known is not None:
+            return known.get(axis, [])
+        return Data.tones(self, axis)
 
 
-def regressor_data(data: Data) -> Data:
-    """``data`` for regressors only (see :class:`_Regressors`)."""
-    if isinstance(data, _Regressors):
-        return data
-    return _Regressors(**{f.name: getattr(data, f.name) for f in fields(Data)})
+def regressor_data(data: Data, axes: tuple[int, ...] = (),
+                   known: dict[int, list[float]] | None = None) -> Data:  # fmt: skip
+    """``data`` for the regressors of targets driven by ``axes`` (see :class:`_Regressors`);
+    ``known``: the tones [Hz] of a planned run per axis, used instead of searching the
+    periodogram (the search's refinement costs ~0.2 s an axis and finds these)."""
+    out = _Regressors(**{f.name: getattr(data, f.name) for f in fields(Data)})
+    out._instrumented = frozenset(axes)
+    out._known = known
+    return out
+
+
+def source_axis(channel: str) -> int:
+    """The axis whose motion drives a candidate: ``a<-b`` -> b, ``kind:a`` -> a."""
+    name = channel.rpartition(":")[2].rpartition("<-")[2]
+    return AXES.index(name) if name in AXES else -1
 
 
 def _whitened(cols: list[Column], whiten) -> np.ndarray:
@@ -131,16 +147,19 @@ def _inverse(x: np.ndarray) -> np.ndarray:
     return inv
 
 
-def predict(data: Data, basis: np.ndarray, targets: list[Target], noise: NoiseLevel) -> Prediction:
+def predict(data: Data, basis: np.ndarray, targets: list[Target], noise: NoiseLevel,
+            tones: dict[int, list[float]] | None = None) -> Prediction:  # fmt: skip
     """Predicted standard errors of the nominal parameters and of every target for the
     regressors of ``data`` (a recording, or a planned design's noise-free run).
 
     Equation targets join the nominal columns of Eqs. 12-15 in one GLS design; kinematic
     targets form the kinematic design (the nominal kinematics has no free parameter).
     The twin of an accelerometer effect in the kinematic group is left out (a lower bound
-    on its information, so the prediction errs on the safe side).
+    on its information, so the prediction errs on the safe side).  ``tones`` {axis: [Hz]}:
+    the excitation lines of a planned run (default: found in ``data`` as the diagnosis
+    finds them).
     """
-    data = regressor_data(data)
+    data = regressor_data(data, tuple({source_axis(t.channel) for t in targets} - {-1}), tones)
     eq_cols = nominal_equation_columns(data, basis)
     kin_cols: list[Column] = []
     eq_keys, kin_keys = [], []
@@ -168,13 +187,30 @@ def predict(data: Data, basis: np.ndarray, targets: list[Target], noise: NoiseLe
         j += width
     if kin_cols:
         kn = noise.kinematic_for(kin_cols[0].values.shape[1])
-        kinv = _inverse(_whitened(kin_cols, kn.whiten))
+        kinv = _iv_covariance(kin_cols, kn.whiten)
         j = 0
         for t, width in kin_keys:
             se[t.key] = _combined(kinv[j : j + width, j : j + width])
             corr[t.key] = (0.0, "")
             j += width
     return Prediction(se, corr)
+
+
+def _iv_covariance(cols: list[Column], whiten) -> np.ndarray:
+    """``(Z'X)^-1 Z'Z (X'Z)^-1`` of whitened columns X and instruments Z (the diagnosis'
+    ``solve_iv`` at unit whitened noise): only the tone part of a regressor informs."""
+    x = _whitened(cols, whiten)
+    z = _whitened([Column(c.name, c.values if c.instrument is None else c.instrument)
+                   for c in cols], whiten)  # fmt: skip
+    sx, sz = np.sqrt(np.sum(x**2, axis=0)), np.sqrt(np.sum(z**2, axis=0))
+    dead = (sx == 0) | (sz == 0)
+    sx[sx == 0], sz[sz == 0] = 1.0, 1.0
+    xs, zs = x / sx, z / sz
+    ainv = np.linalg.pinv(zs.T @ xs)
+    cov = ainv @ (zs.T @ zs) @ ainv.T / np.outer(sx, sx)
+    cov[dead, :] = np.inf
+    cov[:, dead] = np.inf
+    return cov
 
 
 def _sd(v: float) -> float:

@@ -144,7 +144,7 @@ def plan(problem: DesignProblem, data: Data, pop_size: int = 40, generations: in
     duration = problem.space.duration_of(x[i])
     spec = problem.spec(x[i])
     run = problem.simulate([spec], duration)
-    after = problem.predictions(run)[0]
+    after = problem.predictions(run, [spec])[0]
     before = recorded_prediction(problem, data)
     return Plan(problem, x[i], spec, duration, before, after, problem.constraints(run)[0],
                 problem.objectives(after, duration), feasible, detect, x.shape[0], run)

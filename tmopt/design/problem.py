@@ -186,11 +186,15 @@ class DesignProblem(ExpensiveProblem):
                                            self.geometry))  # fmt: skip
         return simulate(refs[:, 0], refs[:, 1], cfg, 0, ref_y=(refs[:, 2], refs[:, 3]))
 
-    def predictions(self, result) -> list[Prediction]:
+    def predictions(self, result, specs: Sequence[str] | None = None) -> list[Prediction]:
+        """Predicted standard errors of every run of ``result``; ``specs`` (the runs'
+        multi-sine specs) give the excitation lines the diagnosis will find: the tones of
+        at least two cycles in the run (a slower one is no resolved line)."""
         out = []
         for i in range(result.batch_size):
             data = data_from_result(result, i)
-            out.append(predict(data, self.basis, self.targets, self.noise))
+            known = None if specs is None else resolved_tones(specs[i], data.time.size / data.fs)
+            out.append(predict(data, self.basis, self.targets, self.noise, known))
         return out
 
     def constraints(self, result) -> np.ndarray:
@@ -218,12 +222,23 @@ class DesignProblem(ExpensiveProblem):
         durations = np.array([self.space.duration_of(r) for r in x])
         for d in np.unique(durations):
             rows = np.flatnonzero(durations == d)
-            res = self.simulate([self.spec(x[i]) for i in rows], float(d))
+            specs = [self.spec(x[i]) for i in rows]
+            res = self.simulate(specs, float(d))
             g[rows] = self.constraints(res)
-            for i, pred in zip(rows, self.predictions(res)):
+            for i, pred in zip(rows, self.predictions(res, specs)):
                 f[i] = self.objectives(pred, float(d))
         out["F"] = f
         out["G"] = g
+
+
+def resolved_tones(spec: str, duration: float) -> dict[int, list[float]]:
+    """Tones [Hz] per axis index of a multi-sine spec with at least two cycles in
+    ``duration`` (what a periodogram resolves as a line)."""
+    out: dict[int, list[float]] = {}
+    for k, group in enumerate(spec.partition(":")[2].split(";")):
+        periods = [float(c.split("@")[1]) for c in group.split(",") if c.strip()]
+        out[k] = sorted(1 / p for p in periods if 2 * p <= duration)
+    return out
 
 
 def _unchecked_refs(spec: str, duration: float, fs: float) -> np.ndarray:
