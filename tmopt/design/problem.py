@@ -49,6 +49,8 @@ __all__ = ["DesignSpace", "DesignProblem", "AXIS_LIMIT"]
 
 #: alpha2 D of Eq. 20 per axis [m] (x: the paper's 4 mm gap; y: Y_GAP).
 AXIS_LIMIT = {"x1": REF_LIMIT, "x2": REF_LIMIT, "y1": Y_REF_LIMIT, "y2": Y_REF_LIMIT}
+#: Largest objective value passed to an optimiser (for infinite standard errors).
+F_CAP = 1e30
 #: alpha1 F_max of Eq. 20 [m s^-2].
 ALPHA1_FMAX = SimulationConfig.alpha1 * SimulationConfig.f_max
 
@@ -227,7 +229,9 @@ class DesignProblem(ExpensiveProblem):
             g[rows] = self.constraints(res)
             for i, pred in zip(rows, self.predictions(res, specs)):
                 f[i] = self.objectives(pred, float(d))
-        out["F"] = f
+        # an unexcited target has an infinite standard error: a finite cap keeps the
+        # optimiser's crowding distances defined (the ranking is unchanged)
+        out["F"] = np.minimum(f, F_CAP)
         out["G"] = g
 
 
