@@ -107,3 +107,10 @@ def test_choose_prefers_detectable_feasible_then_eq21(problem):
     g[2, 3] = 0.1  # the best one violates Eq. 20
     i, feasible, detect = choose(problem, np.zeros((4, problem.n_var)), f, g)
     assert (i, feasible, detect) == (1, True, True)
+    # a design that makes k1xx worse than the recorded excitation is avoided when it can be
+    i, _, _ = choose(problem, np.zeros((4, problem.n_var)), f, g, k_before=5e-11)
+    assert i == 1  # only row 1 (1e-11) is detectable, feasible and not worse
+    f[1, 0] = 1e-10
+    i, _, _ = choose(problem, np.zeros((4, problem.n_var)), f, g, k_before=5e-11)
+    assert i in (1, 3)  # none is better than before: Eq. 21 on (k1xx SE, time) decides
+    assert i == 1  # same k1xx SE, shorter run

@@ -8,9 +8,12 @@ framework can be passed) and picks one design:
 
 * among the feasible designs (Eq. 20 on every axis of the realised run), those that make
   every target detectable (``z sigma <= plausible``, the diagnosis' own criterion) if
-  any; else all feasible designs (the targets' worst ratio then leads the objectives);
+  any, else all feasible designs; of those, the ones whose k1xx standard error is not
+  worse than the recorded excitation's, if any (the flagship must not pay for the
+  effects);
 * of those, the one nearest the ideal point after Eq. 21's normalisation
-  ``(f - f_min) / f_min`` over the objectives (``se_k1xx``, the effect ratios, duration).
+  ``(f - f_min) / f_min``: over ``se_k1xx`` and the duration once every target is
+  detectable (detectability is a threshold), else over all objectives.
 """
 
 from __future__ import annotations
@@ -92,10 +95,11 @@ def threshold(n_tests: int, alpha: float) -> float:
     return math.sqrt(float(stats.chi2.isf(alpha / max(n_tests, 1), 1)))
 
 
-def choose(problem: DesignProblem, x: np.ndarray, f: np.ndarray,
-           g: np.ndarray) -> tuple[int, bool, bool]:  # fmt: skip
+def choose(problem: DesignProblem, x: np.ndarray, f: np.ndarray, g: np.ndarray,
+           k_before: float | None = None) -> tuple[int, bool, bool]:  # fmt: skip
     """Index of the chosen design, whether it is feasible and makes every target
-    detectable (see the module docstring)."""
+    detectable (see the module docstring).  ``k_before``: k1xx's standard error with the
+    recorded excitation; designs that do not make it worse are preferred."""
     feasible = np.all(g <= 0, axis=1)
     n_eff = len(problem.effects)
     ratios = f[:, 1 : 1 + n_eff] if n_eff else np.zeros((f.shape[0], 0))
@@ -103,7 +107,11 @@ def choose(problem: DesignProblem, x: np.ndarray, f: np.ndarray,
     pool = np.flatnonzero(detect) if detect.any() else np.flatnonzero(feasible)
     if pool.size == 0:  # nothing feasible: the least violation
         return int(np.argmin(np.sum(np.maximum(g, 0), axis=1))), False, False
-    fp = f[pool]
+    if k_before is not None and np.any(f[pool, 0] <= k_before):
+        pool = pool[f[pool, 0] <= k_before]
+    # detectability reached: it is a threshold, so Eq. 21 weighs k1xx and the time only
+    cols = [0, f.shape[1] - 1] if detect.any() else list(range(f.shape[1]))
+    fp = f[np.ix_(pool, cols)]
     fmin = np.maximum(fp.min(axis=0), 1e-300)
     dist = np.sqrt(np.sum(((fp - fmin) / fmin) ** 2, axis=1))  # Eq. 21
     return int(pool[np.argmin(dist)]), True, bool(detect.any())
@@ -140,12 +148,12 @@ def plan(problem: DesignProblem, data: Data, pop_size: int = 40, generations: in
 
     minimize(problem, algo, ("n_gen", generations), seed=seed, callback=keep, verbose=False)
     x, f, g = np.vstack(xs), np.vstack(fs), np.vstack(gs)
-    i, feasible, detect = choose(problem, x, f, g)
+    before = recorded_prediction(problem, data)
+    i, feasible, detect = choose(problem, x, f, g, before.se["k1xx"])
     duration = problem.space.duration_of(x[i])
     spec = problem.spec(x[i])
     run = problem.simulate([spec], duration)
     after = problem.predictions(run, [spec])[0]
-    before = recorded_prediction(problem, data)
     return Plan(problem, x[i], spec, duration, before, after, problem.constraints(run)[0],
                 problem.objectives(after, duration), feasible, detect, x.shape[0], run)
 
