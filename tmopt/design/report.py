@@ -205,7 +205,7 @@ def plot(plan: Plan, rep: dict, path: Path) -> None:
     axes[2].axhline(1.0, color="k", ls="--", lw=0.8, label="detectable below")
     axes[2].set_yscale("log")
     axes[2].set_xticks(pos, names, fontsize=6, rotation=60, ha="right")
-    axes[2].set_ylabel("z sigma / plausible")
+    axes[2].set_ylabel("z sigma / plausible (bars capped at 1e12)")
     axes[2].legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
