@@ -236,12 +236,20 @@ class DesignProblem(ExpensiveProblem):
 
 
 def resolved_tones(spec: str, duration: float) -> dict[int, list[float]]:
-    """Tones [Hz] per axis index of a multi-sine spec with at least two cycles in
-    ``duration`` (what a periodogram resolves as a line)."""
+    """Tones [Hz] per axis index of a multi-sine spec that a periodogram of ``duration``
+    resolves as separate lines: at least two cycles in the run, and, strongest first, at
+    least two frequency bins (``2 / duration``) from every stronger kept line (the
+    diagnosis' line search merges closer ones into one peak)."""
     out: dict[int, list[float]] = {}
     for k, group in enumerate(spec.partition(":")[2].split(";")):
-        periods = [float(c.split("@")[1]) for c in group.split(",") if c.strip()]
-        out[k] = sorted(1 / p for p in periods if 2 * p <= duration)
+        comps = [[float(v) for v in c.split("@")[:2]] for c in group.split(",") if c.strip()]
+        kept: list[float] = []
+        for amp, period in sorted(comps, reverse=True):
+            f = 1 / period
+            if amp > 0 and 2 * period <= duration and all(abs(f - g) >= 2 / duration
+                                                          for g in kept):  # fmt: skip
+                kept.append(f)
+        out[k] = sorted(kept)
     return out
 
 
