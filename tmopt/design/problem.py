@@ -142,7 +142,8 @@ class DesignProblem(ExpensiveProblem):
         stiffness, bias: The identified model the planned run is simulated with.
         space: The design space.
         z: The diagnosis' detection threshold (sqrt of the Bonferroni chi^2_1 quantile).
-        controller, ramp_in: Physics options of the planned run.
+        controller, ramp_in: Physics options of the planned run (None: the run settings'
+            defaults, :class:`tmopt.physics.scenario.Settings`).
     """
 
     def __init__(self, targets: Sequence[Target], noise: NoiseLevel, sample_rate: float = 10.0,
@@ -150,15 +151,17 @@ class DesignProblem(ExpensiveProblem):
                  stiffness: tuple[float, float, float, float] = (1e-7, 1e-7, 1e-7, 1e-7),
                  bias: tuple[float, float, float, float] = (1e-10, 1e-10, 1e-10, 1e-10),
                  space: DesignSpace | None = None, z: float = 4.0,
-                 controller: str = "frbf_pid", ramp_in: float = 90.0) -> None:  # fmt: skip
+                 controller: str | None = None,
+                 ramp_in: float | None = None) -> None:  # fmt: skip
         self.targets = list(targets)
         self.noise = noise
         self.space = DesignSpace() if space is None else space
         self.geometry = Geometry() if geometry is None else geometry
         self.z = float(z)
         self.settings = Settings(duration=self.space.duration[1], sample_rate=sample_rate,
-                                 controller=controller, stiffness=tuple(stiffness),
-                                 bias=tuple(bias), ramp_in=ramp_in)  # fmt: skip
+                                 controller=controller or Settings.controller,
+                                 stiffness=tuple(stiffness), bias=tuple(bias),
+                                 ramp_in=Settings.ramp_in if ramp_in is None else ramp_in)
         self.base = base_parts(self.space.base, self.space.duration[1], sample_rate)
         self.basis = null_basis(self.geometry)
         self.effects = sorted({t.effect for t in self.targets})

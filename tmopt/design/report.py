@@ -12,6 +12,12 @@ import numpy as np
 
 from tmopt.design.plan import Plan
 from tmopt.files import atomic_write_text
+from tmopt.mismatch.effects import EFFECTS
+from tmopt.mismatch.effects.cubic_stiffness import CubicStiffness
+from tmopt.mismatch.effects.readout_scale import ReadoutScale
+from tmopt.mismatch.effects.sensing_cross_talk import SensingCrossTalk
+from tmopt.mismatch.effects.stiffness_cross_coupling import StiffnessCrossCoupling
+from tmopt.mismatch.effects.stiffness_drift import StiffnessDrift
 from tmopt.physics.recording import AXES
 
 __all__ = ["SCHEMA_VERSION", "build", "write", "explain"]
@@ -109,28 +115,31 @@ def explain(rep: dict) -> list[str]:
 
 
 def _physics(rep: dict, effect: str, channel: str) -> str:
+    """The words for one target; the effect is recognised by its class (its name has one
+    home, its module)."""
     kind, _, ch = channel.rpartition(":")
     if "<-" in ch:
         dst, src = ch.split("<-")
     else:
         dst = src = ch
-    if effect == "stiffness_cross_coupling":
+    cls = type(EFFECTS[effect]) if effect in EFFECTS else None
+    if cls is StiffnessCrossCoupling:
         return (f"the design {_moves(rep, src)}, so that the {dst}<-{src} coupling shows as a "
                 f"force in {dst} that follows {src}'s tones, which differ from {dst}'s own, "
                 f"so the k_{dst}{src} column is no longer a copy of k_{dst[0]}{dst} x.")
-    if effect == "cubic_stiffness":
+    if cls is CubicStiffness:
         return (f"the design {_moves(rep, ch)} with amplitudes near Eq. 20's limit: "
                 f"k3 {ch}^3 grows like A^3 and puts a line at three times each tone "
                 f"(and at the tones' intermodulation), which the linear k {ch} cannot fit.")
-    if effect == "stiffness_drift":
+    if cls is StiffnessDrift:
         return (f"the design {_moves(rep, ch)} for the whole run: a drifting stiffness then "
                 f"shows as a force t * {ch} whose amplitude grows through the run, "
                 f"separable from the constant k {ch} (it is invisible while {ch} is still).")
-    if effect == "sensing_cross_talk":
+    if cls is SensingCrossTalk:
         return (f"the design {_moves(rep, src)}: the {kind or 'displacement'} readout of "
                 f"{dst} then sees {src}'s tones without any matching acceleration of {dst} "
                 f"(the ZOH kinematics x'' = a breaks at {src}'s frequencies).")
-    if effect == "readout_scale":
+    if cls is ReadoutScale:
         return (f"the design {_moves(rep, ch)}: the {kind or 'displacement'} readout's scale "
                 f"error (1+e) then breaks the kinematic identity x'' = a on {ch} in "
                 f"proportion to {ch}'s acceleration (in Eq. 10 alone it is aliased with k).")
