@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import types
 from collections.abc import Sequence
 from dataclasses import asdict, replace
 from pathlib import Path
@@ -32,7 +33,12 @@ import numpy as np
 from tmopt.physics import objectives
 from tmopt.physics.control import JACOBIANS
 from tmopt.physics.geometry import Geometry
-from tmopt.physics.recording import recording_from_simulation, write_recording
+from tmopt.physics.recording import (
+    RecordingError,
+    recording_format,
+    recording_from_simulation,
+    write_recording,
+)
 from tmopt.physics.scenario import Y_AXES, Settings, excitation, simulation_config
 from tmopt.physics.simulator import RLS_COLUMN_SETS, SimulationConfig, SimulationResult, simulate
 
@@ -51,11 +57,16 @@ def config(settings: Settings) -> SimulationConfig:
     return simulation_config(settings, Geometry())
 
 
-def run(settings: Settings, seed: int = 0, **options: Any) -> SimulationResult:
+def run(settings: Settings | None = None, seed: int = 0, **options: Any) -> SimulationResult:
     """Simulate ``settings`` (excitation, duration, rate, noise, controller, truths and the
-    physics options ``ramp_in``, ``rls_columns``, ``y_axes``, ``jacobian``); ``options``
-    replace fields of ``settings``."""
-    settings = replace(settings, **options)
+    physics options ``ramp_in``, ``rls_columns``, ``y_axes``, ``jacobian``; None: the
+    paper's defaults); ``options`` replace fields of ``settings``.
+
+    This is also what ``tmopt.simulate(...)`` calls: the module is callable (below), so
+    ``from tmopt import simulate; result = simulate(duration=60, seed=1)`` works beside
+    ``python -m tmopt.simulate``.
+    """
+    settings = replace(Settings() if settings is None else settings, **options)
     ref1, ref2, _ = excitation(settings.excitation, settings.duration, settings.sample_rate)
     return simulate(ref1[None], ref2[None], config(settings), seed=seed)
 
@@ -182,6 +193,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                             description=f"tmopt.simulate {args.excitation}")
         if args.seed < 0:
             raise ValueError(f"seed must be an integer >= 0, got {args.seed}")
+        try:
+            recording_format(args.out)
+        except RecordingError as exc:
+            raise ValueError(f"--out {exc}") from None
         result = run(settings, seed=args.seed)
     except ValueError as exc:
         print(f"tmopt.simulate: error: {exc}", file=sys.stderr)
@@ -202,6 +217,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"json: {path}")
     return 0
 
+
+class _CallableModule(types.ModuleType):
+    """``tmopt.simulate`` is both this module and the function :func:`run`."""
+
+    def __call__(self, settings: Settings | None = None, seed: int = 0,
+                 **options: Any) -> SimulationResult:
+        return run(settings, seed, **options)
+
+
+sys.modules[__name__].__class__ = _CallableModule
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -117,6 +117,23 @@ def test_stage_one_models_per_variant(cls, n_outputs, con):
     assert alg.info()["models"] == n_outputs
 
 
+def test_ipc_says_its_fallback_on_an_ungrouped_problem_once(caplog, monkeypatch):
+    import tmopt.algorithms.mgsaea as mgsaea
+
+    monkeypatch.setattr(mgsaea, "_FALLBACK_SAID", set())  # a fresh process
+    problem = PymooBenchmark("mw3", n_var=4)
+    for _ in range(3):  # three runs of a sweep in one process
+        MGSAEAIPC(surrogate=RBFDouble, pop_size=10, n_init=20).setup(problem, budget=30,
+                                                                       seed=0)
+    said = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert len(said) == 1 and "problem mw3 declares no constraint groups" in said[0]
+    assert "its first constraint (g1) is taken as the key individual's" in said[0]
+    caplog.clear()
+    MGSAEAIPC(surrogate=RBFDouble, pop_size=10, n_init=20).setup(
+        PymooBenchmark("mw3", n_var=4, constraint_groups="split"), budget=30, seed=0)
+    assert "declares no constraint groups" not in caplog.text
+
+
 def test_ipc_key_group_follows_declared_priority_and_split_grouping():
     alg = MGSAEAIPC()
     assert alg.stage_one_indices(TwoGroupProblem()) == (2,)

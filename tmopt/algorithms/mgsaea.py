@@ -228,9 +228,7 @@ class MGSAEA(Algorithm):
         self._stage_one_con = self.stage_one_indices(self.problem)
         if self.stage_one_constraints == "key" and not declares_groups(self.problem) \
                 and self.problem.n_ieq_constr > 1:
-            log.warning("%s: problem %s declares no constraint groups; constraint g1 is "
-                        "taken as the key individual's (ungrouped=first)", self.name,
-                        self.problem.name)
+            _say_fallback_once(self.name, self.problem.name)
         self._pop: _Set | None = None
         self._elite: _Set | None = None
         self._seen = np.zeros((0, self.problem.n_var))  # every design sent, failed ones too
@@ -479,6 +477,20 @@ class MGSAEAStar(MGSAEA):
 
     def stage_one_indices(self, problem: ExpensiveProblem) -> tuple[int, ...]:
         return tuple(range(int(problem.n_ieq_constr)))
+
+
+_FALLBACK_SAID: set[tuple[str, str]] = set()
+
+
+def _say_fallback_once(algorithm: str, problem: str) -> None:
+    """Warn once per process and problem (not on every run of a sweep) what IPC does on
+    a problem without constraint groups; every benchmark suite problem is one."""
+    level = logging.DEBUG if (algorithm, problem) in _FALLBACK_SAID else logging.WARNING
+    _FALLBACK_SAID.add((algorithm, problem))
+    log.log(level, "%s: problem %s declares no constraint groups, so its first constraint "
+            "(g1) is taken as the key individual's (algorithm.ungrouped=first, the same as "
+            "problem.constraint_groups=split; ungrouped=error refuses instead)",
+            algorithm, problem)
 
 
 def declares_groups(problem: ExpensiveProblem) -> bool:

@@ -53,8 +53,10 @@ def run_optimisation(
     """Run ``algorithm`` on ``problem`` for ``budget`` real evaluations.
 
     Args:
-        problem: The problem (vectorised pymoo problem with constraint groups).
-        algorithm: An un-setup :class:`~tmopt.algorithms.base.Algorithm`.
+        problem: A tmopt :class:`ExpensiveProblem` or any pymoo problem (wrapped by
+            :func:`~tmopt.problems.pymoo_problem.as_expensive`).
+        algorithm: A tmopt :class:`~tmopt.algorithms.base.Algorithm` or any pymoo
+            algorithm (wrapped by :func:`~tmopt.algorithms.pymoo_adapter.as_tmopt_algorithm`).
         budget: Real evaluations allowed.
         seed: Seeds the algorithm (and is recorded with every evaluation).
         outdir: Run folder; None keeps everything in memory.
@@ -66,8 +68,11 @@ def run_optimisation(
             into ``metrics.json`` (e.g. simulator-specific numbers).
         eval_time_limit: Seconds allowed per design evaluation (None: no limit).
     """
+    from tmopt.algorithms.pymoo_adapter import as_tmopt_algorithm
+    from tmopt.problems.pymoo_problem import as_expensive
     from tmopt.run.outputs import finished_metrics, write_outputs
 
+    problem, algorithm = as_expensive(problem), as_tmopt_algorithm(algorithm)
     outdir = _prepare_outdir(outdir)
     if outdir is not None:
         done = finished_metrics(outdir, config_hash)
