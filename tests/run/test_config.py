@@ -143,3 +143,17 @@ def test_an_option_whose_class_cannot_be_imported_breaks_only_itself(tmp_path):
         constructor_node("tmopt.algorithms.nope.Nope")
     register_configs(tmp_path)  # no error at start-up: check_node names it when chosen
     assert preflight(["algorithm=nsga2", "problem=mw3", "budget=300"]) == 1
+
+
+def test_sweep_name_is_given_or_derived_from_the_overrides():
+    from tmopt.run.config import sweep_name
+
+    assert sweep_name("mine", ["seed=0,1"]) == "mine"
+    assert sweep_name("", []) == "default"
+    derived = sweep_name("", ["seed=0,1,2", "problem=mw3", "problem.n_var=4",
+                              "algorithm=nsga2,nsga3", "progress=false", "hydra/launcher=x"])
+    assert derived == "algorithm=nsga2+nsga3_problem=mw3_seed=0+1+2_problem.n_var=4"
+    assert derived == sweep_name("", ["algorithm=nsga2,nsga3", "problem.n_var=4",
+                                      "problem=mw3", "seed=0,1,2"])  # spelling order
+    long = sweep_name("", [f"problem.x{i}={i}" for i in range(40)])
+    assert len(long) == 120 and long != sweep_name("", [f"problem.x{i}={i}" for i in range(41)])

@@ -158,3 +158,15 @@ def test_submitit_local_launcher_writes_the_same_run_folders(tmp_path):
                    "hydra.launcher.timeout_min=10")
     assert ("tmopt sweep: 2 runs: 2 skipped (complete), 0 resumed (0 archived evaluations), "
             "0 started; launching 0") in again
+
+
+def test_a_sweep_without_a_name_gets_one_from_its_overrides(tmp_path):
+    env = {**os.environ, "PYTHONUNBUFFERED": "1", "NUMBA_NUM_THREADS": "1"}
+    args = ["problem=mw3", "problem.n_var=4", "algorithm=nsga2", "algorithm.pop_size=10",
+            "budget=20", "seed=0,1", "progress=false", "plots=false"]
+    out = subprocess.run([sys.executable, "-m", "tmopt", "-m", *args], cwd=tmp_path,
+                         env=env, capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr[-3000:]
+    name = "algorithm=nsga2_budget=20_problem=mw3_seed=0+1_algorithm.pop_size=10_problem.n_var=4"
+    assert [p.name for p in (tmp_path / "multirun").iterdir()] == [name]
+    assert len(list((tmp_path / "multirun" / name).glob("*/metrics.json"))) == 2

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from tmopt.mismatch.calibration import FAMILY_ALPHA, LOCATE_ALPHA
 from tmopt.mismatch.diagnose import Settings, diagnose
@@ -45,7 +46,8 @@ def main(argv: list[str] | None = None) -> int:
     dg = diagnose(data_from_recording(rec), settings)
     rep = write_report(dg, args.out, plots=not args.no_plots)
     print(rep["conclusion"])
-    print(f"report: {args.out}/report.md, {args.out}/report.json")
+    out = Path(args.out)
+    print(f"report: {out / 'report.md'}, {out / 'report.json'}")
     return 0
 
 

@@ -84,7 +84,8 @@ class RunConfig:
         resume: Resume an interrupted run found in the output folder (by replay).
         progress: One progress line per generation.
         plots: Write PNG plots into the run folder.
-        name: Label of the run or sweep (names the multirun folder).
+        name: Label of a sweep (names its folder ``multirun/<name>``); empty: derived
+            from the sweep's command-line overrides (:func:`sweep_name`).
         eval_time_limit: Seconds allowed per design evaluation; a design that overruns
             is recorded as failed and the run goes on (None: no limit).
     """
@@ -98,7 +99,7 @@ class RunConfig:
     resume: bool = True
     progress: bool = True
     plots: bool = True
-    name: str = "default"
+    name: str = ""
     eval_time_limit: Optional[float] = None  # noqa: UP045 - OmegaConf needs Optional
     extras: dict = field(default_factory=dict)
 
@@ -109,6 +110,37 @@ def run_folder_name(override_dirname: str) -> str:
     return re.sub(r"(^|,)[+~]+", r"\1", override_dirname)
 
 
+#: Overrides that do not change what a sweep computes, left out of its derived name.
+NOT_IN_SWEEP_NAME = ("name", "resume", "progress", "plots", "hydra", "experiment")
+
+
+def sweep_name(name: str, overrides=()) -> str:
+    """``name``, or when empty a folder name derived from a sweep's overrides.
+
+    ``["problem=mw3", "seed=0,1,2", "algorithm=nsga2,nsga3", "problem.n_var=4"]`` ->
+    ``algorithm=nsga2+nsga3_problem=mw3_seed=0+1+2_problem.n_var=4`` (sorted, choices
+    before dotted keys, so the spelling order does not matter; a preset ``experiment=X``
+    keeps ``X`` in front); over 120 characters the tail becomes a short hash. No override
+    at all: ``default``.
+    """
+    if name:
+        return str(name)
+    parts, preset = [], ""
+    for item in overrides or ():
+        key, _, value = str(item).lstrip("+~").partition("=")
+        if key == "experiment":
+            preset = value
+        if key.split(".")[0].split("/")[0] in NOT_IN_SWEEP_NAME:
+            continue
+        value = re.sub(r"[/'\"\\ ]", "-", value.replace(",", "+"))
+        parts.append(f"{key}={value}")
+    parts.sort(key=lambda p: ("." in p.partition("=")[0], p))  # choices before details
+    derived = "_".join(([preset] if preset else []) + parts) or "default"
+    if len(derived) > 120:
+        derived = f"{derived[:111]}_{hashlib.sha256(derived.encode()).hexdigest()[:8]}"
+    return derived
+
+
 def register_configs(*conf_dirs: str | Path) -> None:
     """Register the run schema, the folder resolver and, for every ``/constructor/<class>``
     that an option file under one of ``conf_dirs`` names (tmopt's own configuration, a
@@ -117,6 +149,8 @@ def register_configs(*conf_dirs: str | Path) -> None:
     store.store(name="run_schema", node=RunConfig)
     if not OmegaConf.has_resolver("tmopt_folder"):
         OmegaConf.register_new_resolver("tmopt_folder", run_folder_name)
+    if not OmegaConf.has_resolver("tmopt_sweep_name"):
+        OmegaConf.register_new_resolver("tmopt_sweep_name", sweep_name)
     for target in constructor_targets(*conf_dirs):
         try:
             node = constructor_node(target)
