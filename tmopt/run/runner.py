@@ -70,7 +70,7 @@ def run_optimisation(
     """
     from tmopt.algorithms.pymoo_adapter import as_tmopt_algorithm
     from tmopt.problems.pymoo_problem import as_expensive
-    from tmopt.run.outputs import finished_metrics, write_outputs
+    from tmopt.run.outputs import finished_metrics, reference_front, write_outputs
 
     problem, algorithm = as_expensive(problem), as_tmopt_algorithm(algorithm)
     outdir = _prepare_outdir(outdir)
@@ -98,7 +98,8 @@ def run_optimisation(
     if outdir is not None:
         algorithm.attach_checkpoint(outdir / CHECKPOINT_FILE,
                                     replay.X if replay is not None else None)
-    reporter = ProgressReporter(budget, problem.objective_names, enabled=progress)
+    reporter = ProgressReporter(budget, problem.objective_names, enabled=progress,
+                                front=reference_front(problem) if progress else None)
     t0 = time.perf_counter()
     try:
         while evaluator.remaining > 0 and algorithm.has_next():
