@@ -136,17 +136,26 @@ def plot(result: SimulationResult, path: Path) -> None:
     t = result.time
     fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
     for ax, tm in zip(axes[:2], (1, 2)):
-        ax.plot(t, getattr(result, f"ref_x{tm}")[0], label="reference", lw=1)
+        ref = getattr(result, f"ref_x{tm}")[0]
+        ax.plot(t, ref, label="reference", lw=1)
         ax.plot(t, getattr(result, f"x{tm}")[0], "--", label="controlled (measured)", lw=1)
-        ax.set_ylabel(f"x{tm} [m]")
-        ax.legend(fontsize=8)
+        ax.set_ylabel(f"TM{tm} sensitive axis x{tm} [m]")
+        # reference and motion overlap at this scale: the tracking error on its own axis
+        err = ax.twinx()
+        err.plot(t, ref - getattr(result, f"x{tm}_true")[0], color="0.5", lw=0.6,
+                 label="tracking error r - x (true)")
+        err.set_ylabel("tracking error [m]", color="0.4")
+        lines = ax.get_legend_handles_labels(), err.get_legend_handles_labels()
+        ax.legend(lines[0][0] + lines[1][0], lines[0][1] + lines[1][1], fontsize=7,
+                  loc="upper right")
     for name, idx in PARAMETERS.items():
-        axes[2].plot(t, result.theta_hat[0, :, idx], label=name)
-        axes[2].axhline(result.config.theta_true[idx], color="0.6", lw=0.8)
+        axes[2].plot(t, result.theta_hat[0, :, idx], label=f"{name} estimate (RLS)")
+        axes[2].axhline(result.config.theta_true[idx], color="0.4", lw=0.8, ls=":",
+                        label=f"{name} truth")
     truth = result.config.theta_true[:2]
     span = max(float(np.max(np.abs(truth))), 1e-9)
     axes[2].set_ylim(truth.min() - span, truth.max() + span)  # the start-up transient is huge
-    axes[2].set_ylabel("RLS estimate [s^-2]")
+    axes[2].set_ylabel("stiffness [s$^{-2}$]")
     axes[2].set_xlabel("time [s]")
     axes[2].legend(fontsize=8)
     fig.tight_layout()
