@@ -67,3 +67,12 @@ def test_in_a_terminal_the_bar_shows_and_the_log_file_still_gets_the_line(monkey
     assert console_text.getvalue() == ""  # the bar replaces the line on the console
     assert "3/10" in bar_text.getvalue() and "stage=2" in bar_text.getvalue()
     assert not console.filters  # the console is as it was after the run
+
+
+def test_stiffness_runs_show_the_best_m_of_eq_29():
+    reporter = ProgressReporter(10, ["convergence_time_TM1", "convergence_accuracy_TM1"],
+                                enabled=False, m_weights=(1 / 60, 1e10))
+    data = _data()
+    data.F = np.array([[600.0, 5e-11], [120.0, 9e-11], [60.0, 1e-12]])  # row 3 infeasible
+    # M = 600/60 + 0.5 = 10.5 and 120/60 + 0.9 = 2.9: the best feasible is 2.9
+    assert "| best M 2.9 |" in reporter.line(1, data, {})

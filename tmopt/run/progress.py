@@ -9,7 +9,7 @@ import numpy as np
 from tqdm import tqdm
 
 from tmopt.evaluation.archive import ArchiveData
-from tmopt.metrics import igd, non_dominated_feasible
+from tmopt.metrics import igd, metric_m, non_dominated_feasible
 
 log = logging.getLogger("tmopt.progress")
 
@@ -45,16 +45,23 @@ class ProgressReporter:
     The bar is shown only when both stdout and stderr are terminals, so sweeps, CI and
     redirected output get the log lines alone. Each line: generation, evaluations used of
     the budget, feasible share, IGD of the feasible non-dominated set where the problem's
-    front is known (``front``), the best value of each objective among feasible designs,
-    and the algorithm's stage (:meth:`Algorithm.info`).
+    front is known (``front``), the best M (Eq. 29, TM1) where the objectives are its
+    convergence time and accuracy (``m_weights``: the stiffness problem's), the best value
+    of each objective among feasible designs, and the algorithm's stage (:meth:`Algorithm.info`).
     """
 
     def __init__(self, budget: int, objective_names: list[str], enabled: bool = True,
-                 front: np.ndarray | None = None) -> None:
+                 front: np.ndarray | None = None,
+                 m_weights: tuple[float, float] | None = None) -> None:
         self.budget = budget
         self.names = objective_names
         self.enabled = enabled
         self.front = front
+        # Eq. 29's M of TM1 where the objectives are its time and accuracy (stiffness)
+        pair = ("convergence_time_TM1", "convergence_accuracy_TM1")
+        self.m_columns = [objective_names.index(n) for n in pair] \
+            if m_weights is not None and all(n in objective_names for n in pair) else None
+        self.m_weights = m_weights
         terminal = sys.stdout.isatty() and sys.stderr.isatty()
         self.bar = tqdm(total=budget, unit="eval", file=sys.stderr, dynamic_ncols=True) \
             if enabled and terminal else None
@@ -71,12 +78,25 @@ class ProgressReporter:
         keep = non_dominated_feasible(data.F, data.G, data.failed)
         return float(igd(data.F[keep], self.front)) if len(keep) else None
 
+    def best_m(self, data: ArchiveData) -> float | None:
+        """Smallest M (Eq. 29, TM1) among feasible designs so far (None where not defined)."""
+        if self.m_columns is None:
+            return None
+        keep = non_dominated_feasible(data.F, data.G, data.failed)
+        if not len(keep):
+            return None
+        F = data.F[keep]
+        return float(np.min(metric_m(F[:, self.m_columns[0]], F[:, self.m_columns[1]],
+                                     *self.m_weights)))
+
     def line(self, gen: int, data: ArchiveData, info: dict, replaying: bool = False) -> str:
         best = best_so_far(data)
         best_txt = "none feasible" if best is None else " ".join(
             f"{n}={v:.4g}" for n, v in zip(self.names, best))
         distance = self.igd(data)
         igd_txt = "" if distance is None else f" | IGD {distance:.4g}"
+        m = self.best_m(data)
+        igd_txt += "" if m is None else f" | best M {m:.4g}"
         extra = " ".join(f"{k}={v}" for k, v in info.items())
         tag = " (replayed from archive)" if replaying else ""
         return (f"gen {gen:4d} | evals {len(data)}/{self.budget} | feasible "

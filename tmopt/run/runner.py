@@ -99,7 +99,8 @@ def run_optimisation(
         algorithm.attach_checkpoint(outdir / CHECKPOINT_FILE,
                                     replay.X if replay is not None else None)
     reporter = ProgressReporter(budget, problem.objective_names, enabled=progress,
-                                front=reference_front(problem) if progress else None)
+                                front=reference_front(problem) if progress else None,
+                                m_weights=getattr(problem, "m_weights", None))
     t0 = time.perf_counter()
     try:
         while evaluator.remaining > 0 and algorithm.has_next():
