@@ -90,7 +90,7 @@ def plot_convergence(problem, data: ArchiveData, path: Path) -> None:
     fig, axes = plt.subplots(1, m + 1, figsize=(4 * (m + 1), 3.5), squeeze=False)
     for k in range(m):
         ax = axes[0][k]
-        ax.set_title(f"best feasible {problem.objective_names[k]}", fontsize=9)
+        ax.set_title(f"best feasible {problem.objective_names[k].replace('_', ' ')}", fontsize=9)
         if not ok.any():
             note_nothing_to_draw(ax, f"no feasible design in {len(data)} real evaluations")
             continue
