@@ -46,3 +46,11 @@ def test_anytime_panel_without_finite_values_says_so(monkeypatch, tmp_path):
                                                              tmp_path / "a.png"))
     assert [t.get_text() for t in axes[0].texts] == [
         "no finite IGD in any run (no feasible design yet)"]
+
+
+def test_fig8_panel_of_a_scheme_without_runs_has_a_note_and_no_ticks(monkeypatch, tmp_path):
+    axes = _axes(monkeypatch, lambda: figures.fig8([], tmp_path / "f8.png"))
+    panels = [ax for ax in axes if ax.texts]  # the twin accuracy axes carry no note
+    assert [ax.texts[0].get_text() for ax in panels] == [
+        f"no runs of scheme {s}" for s in "ABC"]
+    assert all(len(ax.get_xticks()) == 0 and len(ax.get_yticks()) == 0 for ax in axes)

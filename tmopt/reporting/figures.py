@@ -58,14 +58,15 @@ def fig8(rows: list[dict], path: Path) -> None:
     for ax, scheme in zip(axes, SCHEMES):
         ax2 = ax.twinx()
         series_of_scheme = _series(rows, scheme)
+        ax.set_title(f"({'abc'[SCHEMES.index(scheme)]}) Scheme {scheme}")
         if not series_of_scheme:
-            ax.text(0.5, 0.5, f"no runs of scheme {scheme}", ha="center",
-                    transform=ax.transAxes)
+            note_nothing_to_draw(ax, f"no runs of scheme {scheme}")
+            ax2.set_yticks([])
+            continue
         for i, (name, series) in enumerate(series_of_scheme.items()):
             _errorbar(ax, series, "convergence_time_TM1", color=f"C{i}", label=f"{name}: time")
             _errorbar(ax2, series, "convergence_accuracy_TM1", color=f"C{i}", ls="--",
                       marker="s", mfc="white", label=f"{name}: accuracy")
-        ax.set_title(f"({'abc'[SCHEMES.index(scheme)]}) Scheme {scheme}")
         ax.set_xlabel("number of frequencies k")
         ax.xaxis.get_major_locator().set_params(integer=True)
         ax.set_ylabel("convergence time TM1 (s), solid")
