@@ -21,12 +21,14 @@ def _box_row(problem: str, algorithm: str, igd: list[float]) -> dict:
 
 def test_benchmark_boxes_log_when_spanning_decades_and_note_when_empty(monkeypatch, tmp_path):
     rows = [_box_row("mw1", "nsga2", [1e-3, 2e-3]), _box_row("mw1", "ssde", [0.5, 0.8]),
-            _box_row("mw11", "nsga2", [None, None]), _box_row("mw3", "nsga2", [0.1, 0.2])]
+            _box_row("mw11", "nsga2", [None, None]), _box_row("mw3", "nsga2", [0.1, None])]
     axes = _axes(monkeypatch, lambda: figures.benchmark_boxes(rows, "igd", "t",
                                                               tmp_path / "b.png"))
     mw1, mw11, mw3 = axes[:3]
     assert mw1.get_yscale() == "log" and mw1.get_ylabel() == "IGD [-]"
     assert mw3.get_yscale() == "linear"
+    assert [t.get_text() for t in mw3.get_xticklabels()] == ["NSGA-II (n=1/2)"]
+    assert [t.get_text() for t in mw1.get_xticklabels()] == ["NSGA-II (n=2/2)", "SSDE (n=2/2)"]
     assert [t.get_text() for t in mw11.texts] == [
         "no run has a finite IGD (no feasible design, or no reference front)"]
     assert len(mw11.get_yticks()) == 0

@@ -216,7 +216,9 @@ def benchmark_boxes(rows: list[dict], key: str, title: str, path: Path) -> None:
     for ax, prob in zip(axes.flat, problems):
         sub = [r for r in rows if r["setting"]["problem"] == prob]
         data = [finite(r["values"][key]) for r in sub]
-        names = [label(r["setting"], hide=("problem",)) for r in sub]
+        # how many runs a box holds: runs without a feasible design have no IGD
+        names = [f"{label(r['setting'], hide=('problem',))} (n={len(d)}/"
+                 f"{len(r['values'][key])})" for r, d in zip(sub, data)]
         ax.set_title(prob)
         if not any(len(d) for d in data):
             note_nothing_to_draw(ax, f"no run has a finite {key.upper()} (no feasible "
