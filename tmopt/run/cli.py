@@ -276,6 +276,7 @@ def summary_table(metrics: dict, outdir: Path | None = None) -> str:
     for key, v in (metrics.get("identification") or {}).items():
         if isinstance(v, float) and key not in prob["objectives"]:  # those are shown above
             rows.append(f"| chosen: {key} | {_fmt(v)} |")
+    rows += _heldout_rows(metrics)
     for key in ("igd", "igd_plus", "hv"):
         if metrics.get(key) is not None:
             rows.append(f"| {key} | {_fmt(metrics[key])} |")
@@ -283,6 +284,30 @@ def summary_table(metrics: dict, outdir: Path | None = None) -> str:
     if outdir is not None:
         rows += ["", f"outputs: {outdir}"]
     return "\n".join(rows)
+
+
+def _heldout_rows(metrics: dict) -> list[str]:
+    """The chosen design on held-out noise seeds and the physical floor (stiffness runs)."""
+    rows = []
+    held = metrics.get("heldout")
+    if held:
+        n = held["n_seeds"]
+        for q in ("M", "convergence_time", "convergence_accuracy", "final_accuracy"):
+            st = held[q]
+            rows.append(f"| chosen, held-out ({n} seeds): {q} | {_fmt(st['mean'])} ± "
+                        f"{_fmt(st['std'])} (median {_fmt(st['median'])}) |")
+        rows.append(f"| chosen, held-out runs keeping Eq. 20 | {_fmt(held['eq20_share'])} |")
+    floor = metrics.get("floor")
+    if floor:
+        line = (f"final accuracy >= {_fmt(floor['final_accuracy_mean'])} (mean |error|), "
+                f"M >= {_fmt(floor['M'])}")
+        if "convergence_accuracy_mean" in floor:
+            line += (f", convergence accuracy >= {_fmt(floor['convergence_accuracy_mean'])} "
+                     f"at {_fmt(floor['convergence_time'])} s")
+        rows.append(f"| physical floor ({floor['parameter']}) | {line} |")
+        if floor.get("below_floor"):
+            rows.append(f"| below the floor (noise luck) | {', '.join(floor['below_floor'])} |")
+    return rows
 
 
 def _fmt(v) -> str:
