@@ -34,6 +34,12 @@ RUN_ONLY_KEYS = ("resume", "progress", "plots", "name")
 #: Keyed by (config group, its ``_target_``, parameter).
 HASH_NEUTRAL_DEFAULTS: dict[tuple[str, str, str], object] = {
     ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "max_baseline"): None,
+    # docs/speed.md: conf/algorithm/qlognehvi_reference.yaml pins these
+    ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "cached_posterior"): False,
+    ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "init_batch_limit"): None,
+    ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "refit_every"): 1,
+    ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "refit_guard"): None,
+    ("surrogate", "tmopt.surrogates.gp.GPSurrogate", "refit_guard"): None,
 }
 
 

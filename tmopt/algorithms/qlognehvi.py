@@ -100,6 +100,7 @@ from tmopt.algorithms.base import Algorithm, AlgorithmConfigError
 from tmopt.problems.base import ExpensiveProblem
 from tmopt.problems.evaluator import EvaluatedBatch
 from tmopt.surrogates.gp import KERNELS, GPSurrogate
+from tmopt.surrogates.gp_posterior import CachedJointGP
 
 log = logging.getLogger(__name__)
 
@@ -113,11 +114,13 @@ class QLogNEHVI(Algorithm):
     uses_surrogate = True
 
     def __init__(self, n_init: int | None = None, q: int = 5, num_restarts: int = 4,
-                 raw_samples: int = 128, acq_maxiter: int = 100, mc_samples: int = 64,
+                 raw_samples: int = 256, acq_maxiter: int = 30, mc_samples: int = 64,
                  ref_offset: float = 0.1, ref_point: str = "all",
-                 eta: float = 1e-3, gp_max_iter: int = 200, kernel: str = "rbf",
+                 eta: float = 1e-3, gp_max_iter: int = 50, kernel: str = "rbf",
                  max_baseline: int | None = None, max_iter: int | None = None,
-                 threads: int | None = 1) -> None:
+                 threads: int | None = 1, cached_posterior: bool = True,
+                 init_batch_limit: int | None = 256, refit_every: int = 5,
+                 refit_guard: float | None = 4.0) -> None:
         n = self.name
         self.q = check_int(n, "q", q, 1)
         super().__init__(pop_size=max(self.q, 2))  # the batch is all the "population" it has
@@ -141,6 +144,12 @@ class QLogNEHVI(Algorithm):
             n, "max_baseline", max_baseline, 1)
         self.max_iter = None if max_iter is None else check_int(n, "max_iter", max_iter, 0)
         self.threads = None if threads is None else check_int(n, "threads", threads, 1)
+        self.cached_posterior = bool(cached_posterior)
+        self.init_batch_limit = None if init_batch_limit is None else check_int(
+            n, "init_batch_limit", init_batch_limit, 1)
+        self.refit_every = check_int(n, "refit_every", refit_every, 1)
+        self.refit_guard = None if refit_guard is None else check_number(
+            n, "refit_guard", refit_guard, 0.0, low_open=True)
 
     # ---- framework hooks --------------------------------------------------------------------
     def initial_sample_size(self, problem: ExpensiveProblem) -> int:
@@ -156,6 +165,7 @@ class QLogNEHVI(Algorithm):
         self.F = np.zeros((0, p.n_obj))
         self.G = np.zeros((0, p.n_ieq_constr))
         self.gp = GPSurrogate(kernel=self.kernel, max_iter=self.gp_max_iter, warm_start=True,
+                              refit_every=self.refit_every, refit_guard=self.refit_guard,
                               rbf_fallback=False, seed=self.seed)
         self.iteration = 0
         self.timing: dict[str, float] = {}
@@ -167,6 +177,11 @@ class QLogNEHVI(Algorithm):
     def info(self) -> dict:
         out: dict = {"iteration": self.iteration}
         out.update({k: f"{v:.1f}s" for k, v in self.timing.items()})
+        fit = getattr(self, "gp", None) and self.gp.fit_info
+        if fit:  # how the GPs were made: optimised ("mll"...) or kept, and the guard's value
+            out["gp"] = fit.get("stage")
+            if "surprise" in fit:
+                out["surprise"] = f"{fit['surprise']:.2f}"
         return out
 
     # ---- ask ----------------------------------------------------------------------------------
@@ -209,7 +224,8 @@ class QLogNEHVI(Algorithm):
         if not maximise:
             self.timing["acq"] = 0.0
             return None
-        model = self.gp.model
+        # The same exact posterior; CachedJointGP only skips recomputing the baseline rows
+        model = CachedJointGP(self.gp) if self.cached_posterior else self.gp.model
         m, k = self.problem.n_obj, self.problem.n_ieq_constr
         with torch.random.fork_rng(), warnings.catch_warnings():
             torch.manual_seed(seed)  # Boltzmann restart choice and baseline pruning
@@ -234,6 +250,7 @@ class QLogNEHVI(Algorithm):
                 acq, bounds=bounds, q=self.q, num_restarts=self.num_restarts,
                 raw_samples=self.raw_samples, sequential=True,
                 options={"batch_limit": self.num_restarts, "maxiter": self.acq_maxiter,
+                         "init_batch_limit": self.init_batch_limit or self.num_restarts,
                          "seed": seed})
         self.timing["acq"] = time.perf_counter() - start
         return np.clip(candidates.detach().numpy(), 0.0, 1.0)

@@ -1,0 +1,160 @@
+"""Quality of the fast settings against the reference ones (docs/speed.md, "Quality").
+
+Runs the CLI sweeps of one study (sequentially, resumable: a finished run is skipped),
+then scores every run and compares the two variants over the seeds with a two-sided
+Wilcoxon rank-sum test:
+
+* suite problems (MW3): IGD and HV of the final feasible front (the run's metrics.json);
+* the stiffness problem: held-out M of the run's chosen design (Eq. 21), i.e. the design
+  re-simulated on fresh noise realisations (``noise_seed`` 1000, 1001, ... , not the
+  realisation 0 it was optimised on) and M (Eq. 29, default threshold) averaged over them.
+  A minimal scorer for this study only; the full held-out machinery is issue #18's.
+
+Usage::
+
+    python experiments/speed_quality.py qlognehvi-mw3        # runs, then the table
+    python experiments/speed_quality.py qlognehvi-stiffness --report-only
+    python experiments/speed_quality.py --list
+
+Cost (2 shared cores, one thread per run): see docs/speed.md; the reference variants
+are the slow part (e.g. ~10 min of one core per MW3 run of 300 evaluations).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+from omegaconf import OmegaConf
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from tmopt.reporting.stats import fmt_p, rank_sum  # noqa: E402
+
+#: study -> (CLI overrides common to both variants, {variant: overrides}, metrics)
+STUDIES = {
+    "qlognehvi-mw3": (
+        ["problem=mw3", "problem.n_var=10", "budget=300"],
+        {"new": ["algorithm=qlognehvi"], "reference": ["algorithm=qlognehvi_reference"]},
+        ("igd", "hv")),
+    "qlognehvi-stiffness": (
+        ["problem=stiffness", "budget=300"],
+        {"new": ["algorithm=qlognehvi"], "reference": ["algorithm=qlognehvi_reference"]},
+        ("M_heldout",)),
+    "gp-mw3": (
+        ["problem=mw3", "problem.n_var=10", "algorithm=mgsaea_ipc", "surrogate=gp",
+         "budget=609"],
+        {"new": [], "reference": ["surrogate.refit_every=1", "surrogate.refit_guard=null"]},
+        ("igd", "hv")),
+    "gp-stiffness": (
+        ["problem=stiffness", "algorithm=mgsaea_ipc", "surrogate=gp", "budget=697"],
+        {"new": [], "reference": ["surrogate.refit_every=1", "surrogate.refit_guard=null"]},
+        ("M_heldout",)),
+}
+#: Held-out noise realisations (never used by an optimisation run, which uses 0).
+HELDOUT_SEEDS = tuple(range(1000, 1010))
+LOWER_IS_BETTER = {"igd": True, "hv": False, "M_heldout": True}
+
+
+def run_sweep(study: str, seeds: int, out: Path) -> None:
+    common, variants, _ = STUDIES[study]
+    env = {**os.environ, "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
+           "MKL_NUM_THREADS": "1"}
+    for variant, overrides in variants.items():
+        cmd = [sys.executable, "-m", "tmopt", "-m", *common, *overrides,
+               f"seed={','.join(str(s) for s in range(seeds))}", "plots=false",
+               f"hydra.sweep.dir={out / study / variant}",
+               "hydra.sweep.subdir=seed${seed}"]
+        print("$", " ".join(cmd[1:]), flush=True)
+        subprocess.run(cmd, cwd=REPO, env=env, check=True)
+
+
+def heldout_m(run: Path, metrics: dict) -> float | None:
+    """Mean M (default threshold) of the chosen design over the held-out noise seeds."""
+    from tmopt.build import build_problem
+
+    chosen = metrics.get("chosen")
+    if not chosen:
+        return None
+    cfg = OmegaConf.load(run / ".hydra" / "config.yaml")
+    values = []
+    for seed in HELDOUT_SEEDS:
+        cfg.problem.noise_seed = seed
+        report = build_problem(cfg).identification_report(np.asarray(chosen["X"]))
+        values.append(report["M_TM1"])
+    return float(np.mean(values))
+
+
+def score(study: str, out: Path) -> dict[str, dict[str, list[float]]]:
+    _, variants, keys = STUDIES[study]
+    table: dict[str, dict[str, list[float]]] = {}
+    for variant in variants:
+        rows: dict[str, list[float]] = {k: [] for k in (*keys, "wall_time_s")}
+        for run in sorted((out / study / variant).glob("seed*")):
+            path = run / "metrics.json"
+            if not path.exists():
+                continue
+            metrics = json.loads(path.read_text())
+            if metrics.get("status") != "complete":
+                continue
+            cache = run / "heldout.json"
+            if "M_heldout" in keys:
+                if not cache.exists():
+                    cache.write_text(json.dumps({"seeds": HELDOUT_SEEDS,
+                                                 "M_heldout": heldout_m(run, metrics)}))
+                metrics["M_heldout"] = json.loads(cache.read_text())["M_heldout"]
+            for k in rows:
+                rows[k].append(metrics.get(k))
+        table[variant] = rows
+    return table
+
+
+def report(study: str, table: dict) -> None:
+    new, ref = table["new"], table["reference"]
+    print(f"\n## {study}: new vs reference (mean ± std over seeds; p: two-sided rank-sum)\n")
+    print("| metric | new | reference | p | new better? |")
+    print("|---|---|---|---|---|")
+    for k in new:
+        a, b = _finite(new[k]), _finite(ref[k])
+        if not len(a) or not len(b):
+            print(f"| {k} | n={len(a)} | n={len(b)} | | |")
+            continue
+        p = rank_sum(a, b) if len(a) > 1 and len(b) > 1 else float("nan")
+        better = np.median(a) < np.median(b) if LOWER_IS_BETTER.get(k, True) \
+            else np.median(a) > np.median(b)
+        print(f"| {k} | {a.mean():.4g} ± {a.std(ddof=1) if len(a) > 1 else 0:.2g} (n={len(a)}) "
+              f"| {b.mean():.4g} ± {b.std(ddof=1) if len(b) > 1 else 0:.2g} (n={len(b)}) "
+              f"| {fmt_p(p)} | {'yes' if better else 'no'} (medians) |")
+
+
+def _finite(values) -> np.ndarray:
+    return np.array([v for v in values if v is not None and np.isfinite(v)], dtype=float)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("study", nargs="?", choices=sorted(STUDIES))
+    ap.add_argument("--seeds", type=int, default=5)
+    ap.add_argument("--out", type=Path, default=REPO / "multirun" / "speed_quality")
+    ap.add_argument("--report-only", action="store_true")
+    ap.add_argument("--list", action="store_true")
+    args = ap.parse_args()
+    if args.list or args.study is None:
+        for name, (common, variants, keys) in STUDIES.items():
+            print(f"{name}: {' '.join(common)}; variants {dict(variants)}; metrics {keys}")
+        return
+    if args.seeds < 2:
+        sys.exit("speed_quality: --seeds must be >= 2 (a rank-sum test needs two runs)")
+    if not args.report_only:
+        run_sweep(args.study, args.seeds, args.out)
+    report(args.study, score(args.study, args.out))
+
+
+if __name__ == "__main__":
+    main()
