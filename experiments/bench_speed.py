@@ -1,0 +1,318 @@
+"""Speed where the time goes (issue 19): qLogNEHVI, the GP-assisted MGSAEA iteration, the
+simulator for designs x noise seeds; each against a reference run in the same process.
+
+Usage::
+
+    python experiments/bench_speed.py --quick      # <= 5 min on 2 shared cores
+    python experiments/bench_speed.py              # full: several archive sizes, per-run
+                                                   # estimates (long: ~1 h of one core)
+    python experiments/bench_speed.py --section qlognehvi --sizes 300 500 --profile
+
+Sections (every time is process CPU seconds of one thread, the load-robust proxy for the
+wall time of an idle machine; wall seconds and the load average are printed beside):
+
+* ``qlognehvi``: per-iteration cost (``ask``: GP fit + qLogNEHVI maximisation) of the
+  default settings (conf/algorithm/qlognehvi.yaml) against the reference
+  (conf/algorithm/qlognehvi_reference.yaml, the settings before this work, which
+  reproduce its archives bit for bit), both built from their YAML like the CLI does, on
+  the same archive of the stiffness problem (scheme B, k = 3: D = 18, 2 objectives, 4
+  constraints; designs of an MGSAEA-IPC/RBF run, seed 0). At every size n the GPs are
+  first fitted on the first n - 5 designs (the previous iteration's fit a run warm-starts
+  from, untimed); then the reference runs one iteration and the default settings run one
+  full refit cycle (``refit_every`` iterations: kept hyperparameters, then a re-fit), so
+  both means are per-iteration averages of a run's steady state. The full mode also
+  times the capped reference of docs/results.md's Table 3 (``max_baseline=64``) and turns
+  the per-iteration costs into a per-run estimate (piecewise-linear over the run's sizes).
+  ``--profile`` prints where the time goes (docs/speed.md's profile tables).
+* ``gp``: one MGSAEA-IPC iteration with the GP at 300 points, D = 18
+  (experiments/bench_mgsaea_iteration.py's setting), conf/surrogate/gp.yaml's defaults
+  against re-optimising the hyperparameters at every fit (``refit_every=1``, no guard,
+  the setting before this work); means over warm iterations (the default's over one
+  refit cycle).
+* ``sim``: ms per (design, noise seed) for B designs x K seeds. PLACEHOLDER (issue 19,
+  part 3, another engineer's): both the "new" and the reference path loop today's kernel
+  over the seeds, so ``sim_ratio`` is 1 by construction until
+  :func:`simulate_designs_seeds` is replaced by the batched kernel.
+
+The last line is ``speed: qlognehvi_ratio=R1 gp_iter_ratio=R2 sim_ms_per_design_seed=T
+sim_ratio=R3`` (ratios = reference time / new time, in this process). In ``--quick`` R1
+is the per-iteration ratio at 300 designs; the full mode's is the per-run estimate of the
+Table 3 run (697 evaluations) against the uncapped reference.
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import os
+import pstats
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+from omegaconf import OmegaConf
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+SECTIONS = ("qlognehvi", "gp", "sim")
+#: Functions whose cumulative time makes the qLogNEHVI profile table (label, name).
+PROFILE_ROWS = (
+    ("GP fit (hyperparameters or kept)", "fit", "gp.py"),
+    ("baseline pruning", "prune_inferior_points_multi_objective", "utils.py"),
+    ("acquisition set-up (box decompositions)", "__init__", "hypervolume.py"),
+    ("pending points (box decompositions)", "set_X_pending", "hypervolume.py"),
+    ("raw samples (restart choice)", "gen_batch_initial_conditions", "initializers.py"),
+    ("L-BFGS-B on the acquisition", "gen_candidates_scipy", "gen.py"),
+    ("  of which: joint posterior (forward)", "posterior", None),
+    ("  of which: backward (gradients)", "run_backward", None),
+)
+
+
+def load() -> str:
+    return f"load average {os.getloadavg()[0]:.2f}"
+
+
+class Clock:
+    """Process CPU and wall seconds of a block."""
+
+    def __enter__(self):
+        self.c, self.w = time.process_time(), time.perf_counter()
+        return self
+
+    def __exit__(self, *exc):
+        self.cpu, self.wall = time.process_time() - self.c, time.perf_counter() - self.w
+
+
+# ---- qLogNEHVI --------------------------------------------------------------------------
+def algorithm_from_yaml(name: str, **overrides):
+    """conf/algorithm/<name>.yaml built as the CLI builds it (plus overrides)."""
+    from tmopt.build import build_algorithm
+
+    node = OmegaConf.load(REPO / "conf" / "algorithm" / f"{name}.yaml")
+    for key, value in overrides.items():
+        node[key] = value
+    return build_algorithm(OmegaConf.create({"algorithm": node}), name)
+
+
+def stiffness_archive(n: int):
+    """The stiffness problem (scheme B, k = 3) and the first n designs of an MGSAEA-IPC
+    run with the RBF surrogate (seed 0): a realistic archive, cheap to make."""
+    from tmopt.algorithms.mgsaea import MGSAEAIPC
+    from tmopt.problems.stiffness import StiffnessProblem
+    from tmopt.runner import run_optimisation
+    from tmopt.surrogates.rbf import RBFSurrogate
+
+    problem = StiffnessProblem()
+    res = run_optimisation(problem, MGSAEAIPC(surrogate=RBFSurrogate, max_iter=None),
+                           budget=max(n, 202), seed=0, progress=False, plots=False)
+    return problem, res.archive
+
+
+def warm_up_botorch() -> None:
+    """Load (or, the first time on a machine, compile) BoTorch's fused qLogEHVI kernel
+    before any timing: a one-off per process, not a cost of either variant."""
+    from botorch.acquisition.multi_objective import logei
+
+    logei._try_load_fused_kernel()
+
+
+def time_qlognehvi(name: str, problem, data, n: int, iters: int, profile: bool = False,
+                   **overrides) -> dict:
+    """Per-iteration CPU/wall of ``ask`` at archive size n (see the module docstring)."""
+    from tmopt.problems.evaluator import EvaluatedBatch, Evaluator
+
+    alg = algorithm_from_yaml(name, **overrides)
+    alg.setup(problem, budget=n + 5 * iters + 5, seed=0)
+
+    def tell(lo, hi):
+        alg.tell(EvaluatedBatch(X=data.X[lo:hi], F=data.F[lo:hi], G=data.G[lo:hi],
+                                failed=data.failed[lo:hi], reason=[""] * (hi - lo)))
+
+    tell(0, n - 5)
+    Y, _ = alg._training_targets()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        alg.gp.fit(alg.U, Y)  # the previous iteration's fit, the warm start of the next
+    tell(n - 5, n)
+    alg.iteration = 1
+    ev = Evaluator(problem, 10**9)
+    rows, prof = [], cProfile.Profile() if profile else None
+    for _ in range(iters):
+        with Clock() as c:
+            if prof:
+                prof.enable()
+            X = alg.ask()
+            if prof:
+                prof.disable()
+        rows.append({"cpu": c.cpu, "wall": c.wall, "stage": alg.gp.fit_info.get("stage"),
+                     **{k: round(v, 2) for k, v in alg.timing.items()}})
+        alg.tell(ev.evaluate(X))
+    out = {"cpu": float(np.mean([r["cpu"] for r in rows])),
+           "wall": float(np.mean([r["wall"] for r in rows])), "rows": rows}
+    if prof:
+        out["profile"] = profile_table(prof, iters)
+    return out
+
+
+def profile_table(prof: cProfile.Profile, iters: int) -> dict[str, float]:
+    """Cumulative seconds per iteration of the PROFILE_ROWS functions (wall, profiled)."""
+    stats = pstats.Stats(prof).stats  # {(file, line, func): (cc, nc, tt, ct, callers)}
+    out = {"total": max(v[3] for v in stats.values()) / iters}
+    for label, func, file in PROFILE_ROWS:
+        hits = [v for (f, _, name), v in stats.items()
+                if (name == func or (file is None and func in name))
+                and (file is None or f.endswith(file))]
+        out[label] = max((v[3] for v in hits), default=0.0) / iters
+    return out
+
+
+def section_qlognehvi(sizes, quick: bool, profile: bool) -> float:
+    warm_up_botorch()
+    with Clock() as c:
+        problem, data = stiffness_archive(max(sizes))
+    print(f"\n## qLogNEHVI per iteration, stiffness problem (scheme B, k = 3, D = 18); "
+          f"archive of {max(sizes)} designs made in {c.cpu:.1f} s CPU; {load()}\n")
+    variants = {"new": ("qlognehvi", {}), "reference": ("qlognehvi_reference", {})}
+    if not quick:
+        variants["reference, max_baseline=64"] = ("qlognehvi_reference", {"max_baseline": 64})
+    cycle = algorithm_from_yaml("qlognehvi").refit_every
+    per: dict[str, dict[int, dict]] = {v: {} for v in variants}
+    print("| n | variant | iterations | CPU s / iteration | wall s | per-iteration stages |")
+    print("|---|---|---|---|---|---|")
+    for n in sizes:
+        for label, (name, over) in variants.items():
+            iters = cycle if label == "new" else 1
+            r = time_qlognehvi(name, problem, data, n, iters, profile, **over)
+            per[label][n] = r
+            stages = ", ".join(f"{x['stage']} {x['cpu']:.1f}" for x in r["rows"])
+            print(f"| {n} | {label} | {iters} | {r['cpu']:.2f} | {r['wall']:.2f} | {stages} |",
+                  flush=True)
+    if profile:
+        print_profiles(per, sizes)
+    ratios = {n: per["reference"][n]["cpu"] / per["new"][n]["cpu"] for n in sizes}
+    print("\nper-iteration ratio reference / new: "
+          + ", ".join(f"n={n}: {r:.1f}" for n, r in ratios.items()))
+    if quick or len(sizes) < 2:
+        return ratios[max(sizes)]
+    runs = {label: per_run(problem, {n: per[label][n]["cpu"] for n in sizes})
+            for label in variants}
+    for label, seconds in runs.items():
+        print(f"per-run estimate ({label}): {seconds / 60:.1f} min CPU for 697 evaluations")
+    capped = runs["reference, max_baseline=64"] / runs["new"]
+    print(f"per-run ratio: reference / new = {runs['reference'] / runs['new']:.1f}; "
+          f"capped reference (Table 3) / new = {capped:.1f}")
+    return runs["reference"] / runs["new"]
+
+
+def per_run(problem, cpu_at: dict[int, float], budget: int = 697, q: int = 5) -> float:
+    """CPU seconds of a run's BO iterations: per-iteration cost interpolated linearly
+    between the measured sizes (constant beyond them) at n = n_init, n_init + q, ..."""
+    n_init = 2 * (problem.n_var + 1)
+    sizes = np.arange(n_init, budget, q)
+    xs = sorted(cpu_at)
+    return float(np.interp(sizes, xs, [cpu_at[x] for x in xs]).sum())
+
+
+def print_profiles(per: dict, sizes) -> None:
+    print("\nWhere an iteration's time goes (cProfile, wall seconds per iteration, "
+          "cumulative; nested rows overlap):\n")
+    cols = [(label, n) for n in sizes for label in per]
+    print("| part | " + " | ".join(f"{lb} n={n}" for lb, n in cols) + " |")
+    print("|---|" + "---|" * len(cols))
+    for row in ("total", *(lb for lb, _, _ in PROFILE_ROWS)):
+        print(f"| {row} | " + " | ".join(f"{per[lb][n]['profile'][row]:.2f}"
+                                         for lb, n in cols) + " |")
+
+
+# ---- GP-assisted MGSAEA iteration --------------------------------------------------------
+def section_gp(quick: bool) -> float:
+    from bench_mgsaea_iteration import bench
+
+    from tmopt.surrogates.gp import GPSurrogate
+
+    cycle = GPSurrogate().refit_every
+    print(f"\n## MGSAEA-IPC iteration with the GP, n = 300, D = 18 (stage one, 3 models); "
+          f"{load()}\n")
+    reference = {"refit_every": 1, "refit_guard": None}
+    warm = {}
+    for label, options, iters in (("reference", reference, 3 if quick else 6),
+                                  ("new", {}, cycle if quick else 2 * cycle)):
+        rows = bench("gp", 300, iters + 1, 1, 0, options)
+        cpu = [r["cpu_ask"] for r in rows[1:]]
+        warm[label] = float(np.mean(cpu))
+        print(f"{label:9s} ({options or 'conf/surrogate/gp.yaml defaults'}): cold "
+              f"{rows[0]['cpu_ask']:.2f} s, warm {', '.join(f'{c:.2f}' for c in cpu)} s CPU; "
+              f"mean {warm[label]:.2f} s", flush=True)
+    ratio = warm["reference"] / warm["new"]
+    print(f"per-iteration ratio reference / new: {ratio:.2f}")
+    return ratio
+
+
+# ---- simulator for designs x noise seeds -------------------------------------------------
+def simulate_designs_seeds(ref1, ref2, cfg, seeds) -> None:
+    """PLACEHOLDER for issue 19 part 3 (the batched designs x seeds kernel, another
+    engineer's): today's kernel called once per noise seed."""
+    from tmopt.physics.simulator import simulate
+
+    for seed in seeds:
+        simulate(ref1, ref2, cfg, seed=seed)
+
+
+def simulate_reference(ref1, ref2, cfg, seeds) -> None:
+    """Today's kernel, one call per noise seed (the reference of part 3)."""
+    from tmopt.physics.simulator import simulate
+
+    for seed in seeds:
+        simulate(ref1, ref2, cfg, seed=seed)
+
+
+def section_sim(quick: bool) -> tuple[float, float]:
+    from bench_simulator import population
+
+    from tmopt.physics.simulator import SimulationConfig, simulate
+
+    cfg = SimulationConfig(record="estimates")
+    b, k = 100, (4 if quick else 32)
+    r1, r2 = population(b, seed=0)
+    simulate(*population(1, seed=0), cfg)  # compile / cache load, untimed
+    with Clock() as ref:
+        simulate_reference(r1, r2, cfg, range(k))
+    with Clock() as new:
+        simulate_designs_seeds(r1, r2, cfg, range(k))
+    ms = 1e3 * new.cpu / (b * k)
+    print(f"\n## Simulator, B = {b} designs x K = {k} seeds (PLACEHOLDER: part 3 not done; "
+          f"both paths are today's kernel); {load()}\n")
+    print(f"reference {1e3 * ref.cpu / (b * k):.2f} ms, new {ms:.2f} ms per (design, seed) "
+          f"CPU (wall {1e3 * new.wall / (b * k):.2f} ms)")
+    return ms, ref.cpu / new.cpu
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="<= 5 min: n = 300 only, fewer "
+                    "iterations, K = 4 seeds")
+    ap.add_argument("--section", nargs="+", choices=SECTIONS, default=list(SECTIONS))
+    ap.add_argument("--sizes", type=int, nargs="+", default=None,
+                    help="qLogNEHVI archive sizes (default: 300 quick, else 100 300 500 697)")
+    ap.add_argument("--profile", action="store_true", help="qLogNEHVI profile tables")
+    args = ap.parse_args()
+    sizes = args.sizes or ([300] if args.quick else [100, 300, 500, 697])
+    if min(sizes) < 50 or max(sizes) > 697:
+        sys.exit(f"bench_speed: --sizes must be in [50, 697], got {sizes}")
+    print(f"bench_speed ({'quick' if args.quick else 'full'}): {load()}, "
+          f"cores {os.cpu_count()}")
+    with Clock() as total:
+        r1 = section_qlognehvi(sizes, args.quick, args.profile) \
+            if "qlognehvi" in args.section else float("nan")
+        r2 = section_gp(args.quick) if "gp" in args.section else float("nan")
+        t, r3 = section_sim(args.quick) if "sim" in args.section else (float("nan"),) * 2
+    print(f"\ntotal {total.wall / 60:.1f} min wall, {total.cpu / 60:.1f} min CPU; {load()}")
+    print(f"speed: qlognehvi_ratio={r1:.1f} gp_iter_ratio={r2:.2f} "
+          f"sim_ms_per_design_seed={t:.2f} sim_ratio={r3:.2f}")
+
+
+if __name__ == "__main__":
+    main()
