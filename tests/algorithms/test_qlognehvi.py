@@ -165,6 +165,9 @@ def test_seconds_per_iteration_at_300_points_d18():
     ({"threads": 0}, "threads must be an integer >= 1, got 0"),
     ({"max_iter": -1}, "max_iter must be an integer >= 0, got -1"),
     ({"max_baseline": 0}, "max_baseline must be an integer >= 1, got 0"),
+    ({"refit_every": 0}, "refit_every must be an integer >= 1, got 0"),
+    ({"init_batch_limit": 0}, "init_batch_limit must be an integer >= 1, got 0"),
+    ({"refit_guard": 0.0}, r"refit_guard must be a finite number in \(0.0, inf\), got 0.0"),
     ({"ref_point": "ideal"},
      r"ref_point must be one of \('feasible', 'front', 'all'\), got 'ideal'"),
 ])
@@ -325,3 +328,51 @@ def test_max_baseline_left_at_null_keeps_the_hash_of_configs_without_it():
     other = {**base, "algorithm": {"_target_": "x.Other", "max_baseline": None}}
     assert config_hash(OmegaConf.create(other)) != config_hash(OmegaConf.create(
         {**base, "algorithm": {"_target_": "x.Other"}}))  # only the listed algorithm
+
+
+def test_the_reference_yaml_pins_the_earlier_settings_and_keeps_their_config_hash():
+    """conf/algorithm/qlognehvi_reference.yaml: the settings before docs/speed.md; its
+    config hash equals that of the same node without the keys added since (earlier runs)."""
+    from omegaconf import OmegaConf
+
+    from tmopt.config import config_hash
+
+    from .contract import REPO
+
+    node = OmegaConf.to_container(OmegaConf.load(
+        REPO / "conf" / "algorithm" / "qlognehvi_reference.yaml"))
+    alg = QLogNEHVI(**{k: v for k, v in node.items() if not k.startswith("_")})
+    assert (alg.cached_posterior, alg.init_batch_limit, alg.refit_every, alg.refit_guard) \
+        == (False, None, 1, None)
+    added = ("cached_posterior", "init_batch_limit", "refit_every", "refit_guard", "max_baseline")
+    earlier = {k: v for k, v in node.items() if k not in added}
+    run = {"seed": 0, "budget": 300, "problem": {"_target_": "x.Problem"}}
+    assert config_hash(OmegaConf.create({**run, "algorithm": node})) \
+        == config_hash(OmegaConf.create({**run, "algorithm": earlier}))
+    default = OmegaConf.to_container(
+        OmegaConf.load(REPO / "conf" / "algorithm" / "qlognehvi.yaml"))
+    assert config_hash(OmegaConf.create({**run, "algorithm": default})) \
+        != config_hash(OmegaConf.create({**run, "algorithm": earlier}))
+
+
+def test_refit_every_keeps_the_gps_between_optimisations_and_checkpoints_them(tmp_path):
+    """Default settings: kept GPs between re-fits, and every fit (kept or not) is what
+    the checkpoint holds, so a resume can restore it."""
+    import torch
+
+    from tmopt.algorithms.base import CHECKPOINT_FILE
+
+    alg = QLogNEHVI(n_init=8, refit_every=3, refit_guard=None, **FAST)
+    stages = []
+    problem = PymooBenchmark("mw3", n_var=4)
+    alg.setup(problem, budget=18, seed=0)
+    alg.attach_checkpoint(tmp_path / CHECKPOINT_FILE)
+    ev = Evaluator(problem, 18)
+    while ev.remaining:
+        alg.tell(ev.evaluate(alg.ask()[: ev.remaining]))
+        if alg.iteration > 1:
+            stages.append(alg.gp.fit_info["stage"])
+            saved = torch.load(tmp_path / CHECKPOINT_FILE, weights_only=False)["payload"]
+            assert saved["iteration"] == alg.iteration - 1
+            assert saved["gp"]["fit_info"]["stage"] == stages[-1]
+    assert stages == ["mll", "kept_hypers", "kept_hypers", "mll", "kept_hypers"]

@@ -130,6 +130,75 @@ def test_refit_every_keeps_hyperparameters_between_optimisations(smooth3):
     assert model.model.train_inputs[0].shape[-2] == len(X) - 3
 
 
+def test_refit_guard_reoptimises_at_once_when_the_new_points_surprise_the_model(smooth3):
+    X, Y, f = smooth3
+    rng = np.random.default_rng(9)
+    model = GPSurrogate(refit_every=5, refit_guard=4.0).fit(X, Y)
+    assert model.fit_info["stage"] == "mll"
+    same = rng.uniform(-1, 2, size=(4, 4))                 # more of the same function
+    X, Y = np.vstack([X, same]), np.vstack([Y, f(same)])
+    model.fit(X, Y)
+    assert model.fit_info["stage"] == "kept_hypers" and model.fit_info["surprise"] < 4.0
+    jump = rng.uniform(-1, 2, size=(4, 4))                 # a step the GP has not seen
+    X, Y = np.vstack([X, jump]), np.vstack([Y, f(jump) + [0.0, 0.0, 40.0]])
+    model.fit(X, Y)
+    assert model.fit_info["stage"] == "mll" and model.fit_info["surprise"] > 4.0
+    unguarded = GPSurrogate(refit_every=5, refit_guard=None).fit(X[:-8], Y[:-8])
+    unguarded.fit(X[:-4], Y[:-4])
+    unguarded.fit(X, Y)
+    assert unguarded.fit_info["stage"] == "kept_hypers" and "surprise" not in unguarded.fit_info
+
+
+def test_the_guard_statistic_is_the_leave_one_out_error_by_brute_force(smooth3):
+    """R&W Eq. 5.12 against explicit solves without each new point (same hyperparameters,
+    same standardisation)."""
+    X, Y, f = smooth3
+    model = GPSurrogate(refit_every=5, refit_guard=1e6).fit(X, Y)
+    more = np.random.default_rng(4).uniform(-1, 2, size=(5, 4))
+    X2, Y2 = np.vstack([X, more]), np.vstack([Y, f(more) + [0.3, -0.5, 0.2]])
+    model.fit(X2, Y2)
+    assert model.fit_info["stage"] == "kept_hypers"
+    c = model._caches[0]
+    new = np.arange(len(X), len(X2))
+    worst = 0.0
+    with torch.no_grad():
+        K = c.part.covar_module(c.Xn).to_dense()
+        K = K + c.part.likelihood.noise.reshape(-1, 1, 1) * torch.eye(len(X2), dtype=K.dtype)
+        y = c.part.train_targets - c.const                                  # (b, n)
+        for j in range(K.shape[0]):
+            z2 = []
+            for i in new:
+                rest = np.setdiff1d(np.arange(len(X2)), [i])
+                Kr, k = K[j][rest][:, rest], K[j][rest, i]
+                w = torch.linalg.solve(Kr, k)
+                mu, var = w @ y[j, rest], K[j, i, i] - k @ w
+                z2.append(float((y[j, i] - mu) ** 2 / var))
+            worst = max(worst, float(np.mean(z2)))
+    assert model.fit_info["surprise"] == pytest.approx(worst, rel=1e-6)
+
+
+def test_restore_in_a_kept_cycle_continues_exactly(smooth3):
+    """A checkpoint taken between re-optimisations: the next fits (kept, guarded, then
+    re-optimised) are those of the uninterrupted object."""
+    X, Y, f = smooth3
+    more = np.random.default_rng(11).uniform(-1, 2, size=(8, 4))
+    X2, Y2 = np.vstack([X, more]), np.vstack([Y, f(more)])
+    Xq = np.random.default_rng(6).uniform(-1, 2, size=(9, 4))
+    original = GPSurrogate(refit_every=3, refit_guard=4.0).fit(X2[:40], Y2[:40])
+    original.fit(X2[:44], Y2[:44])
+    assert original.fit_info["stage"] == "kept_hypers"
+    restored = GPSurrogate(refit_every=3, refit_guard=4.0).restore(
+        X2[:44], Y2[:44], original.state())
+    for n in (46, 48):
+        original.fit(X2[:n], Y2[:n])
+        restored.fit(X2[:n], Y2[:n])
+        assert restored.fit_info["stage"] == original.fit_info["stage"]
+        assert restored.fit_info.get("surprise") == original.fit_info.get("surprise")
+        for a, b in zip(original.predict(Xq), restored.predict(Xq)):
+            assert np.array_equal(a, b)
+    assert original.fit_info["stage"] == "mll"  # the 4th fit re-optimises
+
+
 @pytest.mark.parametrize("mode", ["per_output", "model_list"])
 def test_restore_rebuilds_the_fit_and_its_warm_start_exactly(smooth3, mode):
     """A checkpointed fit, restored elsewhere, predicts and warm-starts the next fit alike."""
@@ -237,6 +306,7 @@ def test_bad_data_and_unfitted_use(smooth3):
     ({"max_attempts": 0}, "max_attempts"), ({"fit_mode": "joint"}, "fit_mode"),
     ({"seed": -3}, "seed"), ({"max_iter": True}, "max_iter"),
     ({"refit_every": 0}, "refit_every"), ({"num_threads": -1}, "num_threads"),
+    ({"refit_guard": 0.0}, "refit_guard"), ({"refit_guard": float("inf")}, "refit_guard"),
 ])
 def test_bad_arguments_name_the_parameter(kwargs, name):
     with pytest.raises(ValueError, match=rf"^{name}="):
