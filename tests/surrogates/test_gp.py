@@ -109,7 +109,7 @@ def test_warm_start_same_quality_fewer_iterations(train_test, r2):
 def test_refit_every_keeps_hyperparameters_between_optimisations(smooth3):
     X, Y, f = smooth3
     rng = np.random.default_rng(8)
-    model = GPSurrogate(refit_every=3)
+    model = GPSurrogate(refit_every=3, refit_guard=None)
     stages, lengthscales = [], []
     for _ in range(4):
         model.fit(X, Y)
@@ -121,7 +121,7 @@ def test_refit_every_keeps_hyperparameters_between_optimisations(smooth3):
     assert torch.equal(lengthscales[0], lengthscales[1])
     assert torch.equal(lengthscales[0], lengthscales[2])
     assert not torch.equal(lengthscales[2], lengthscales[3])
-    model = GPSurrogate(refit_every=3).fit(X, Y)
+    model = GPSurrogate(refit_every=3, refit_guard=None).fit(X, Y)
     model.fit(X[:-3], Y[:-3])                            # kept hyperparameters: the GP
     mean, _ = model.predict(X[-3:])                      # is conditioned on the data given
     with torch.no_grad():
@@ -150,8 +150,8 @@ def test_refit_guard_reoptimises_at_once_when_the_new_points_surprise_the_model(
 
 
 def test_the_guard_statistic_is_the_leave_one_out_error_by_brute_force(smooth3):
-    """R&W Eq. 5.12 against explicit solves without each new point (same hyperparameters,
-    same standardisation)."""
+    """R&W Eq. 5.12 against explicit solves without each point (same hyperparameters, same
+    standardisation): mean z^2 at the new points over mean z^2 at the others."""
     X, Y, f = smooth3
     model = GPSurrogate(refit_every=5, refit_guard=1e6).fit(X, Y)
     more = np.random.default_rng(4).uniform(-1, 2, size=(5, 4))
@@ -167,13 +167,14 @@ def test_the_guard_statistic_is_the_leave_one_out_error_by_brute_force(smooth3):
         y = c.part.train_targets - c.const                                  # (b, n)
         for j in range(K.shape[0]):
             z2 = []
-            for i in new:
+            for i in range(len(X2)):
                 rest = np.setdiff1d(np.arange(len(X2)), [i])
                 Kr, k = K[j][rest][:, rest], K[j][rest, i]
                 w = torch.linalg.solve(Kr, k)
                 mu, var = w @ y[j, rest], K[j, i, i] - k @ w
                 z2.append(float((y[j, i] - mu) ** 2 / var))
-            worst = max(worst, float(np.mean(z2)))
+            z2 = np.array(z2)
+            worst = max(worst, z2[new].mean() / np.delete(z2, new).mean())
     assert model.fit_info["surprise"] == pytest.approx(worst, rel=1e-6)
 
 
@@ -186,17 +187,18 @@ def test_restore_in_a_kept_cycle_continues_exactly(smooth3):
     Xq = np.random.default_rng(6).uniform(-1, 2, size=(9, 4))
     original = GPSurrogate(refit_every=3, refit_guard=4.0).fit(X2[:40], Y2[:40])
     original.fit(X2[:44], Y2[:44])
-    assert original.fit_info["stage"] == "kept_hypers"
     restored = GPSurrogate(refit_every=3, refit_guard=4.0).restore(
         X2[:44], Y2[:44], original.state())
-    for n in (46, 48):
+    stages = []
+    for n in (45, 46, 47, 48):
         original.fit(X2[:n], Y2[:n])
         restored.fit(X2[:n], Y2[:n])
+        stages.append(original.fit_info["stage"])
         assert restored.fit_info["stage"] == original.fit_info["stage"]
         assert restored.fit_info.get("surprise") == original.fit_info.get("surprise")
         for a, b in zip(original.predict(Xq), restored.predict(Xq)):
             assert np.array_equal(a, b)
-    assert original.fit_info["stage"] == "mll"  # the 4th fit re-optimises
+    assert "kept_hypers" in stages and "mll" in stages
 
 
 @pytest.mark.parametrize("mode", ["per_output", "model_list"])
