@@ -39,6 +39,7 @@ HASH_NEUTRAL_DEFAULTS: dict[tuple[str, str, str], object] = {
     ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "init_batch_limit"): None,
     ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "refit_every"): 1,
     ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "refit_guard"): None,
+    ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "prune_samples"): None,
     ("surrogate", "tmopt.surrogates.gp.GPSurrogate", "refit_guard"): None,
 }
 

@@ -167,6 +167,7 @@ def test_seconds_per_iteration_at_300_points_d18():
     ({"max_baseline": 0}, "max_baseline must be an integer >= 1, got 0"),
     ({"refit_every": 0}, "refit_every must be an integer >= 1, got 0"),
     ({"init_batch_limit": 0}, "init_batch_limit must be an integer >= 1, got 0"),
+    ({"prune_samples": 0}, "prune_samples must be an integer >= 1, got 0"),
     ({"refit_guard": 0.0}, r"refit_guard must be a finite number in \(0.0, inf\), got 0.0"),
     ({"ref_point": "ideal"},
      r"ref_point must be one of \('feasible', 'front', 'all'\), got 'ideal'"),
@@ -309,8 +310,12 @@ def test_max_baseline_caps_the_designs_the_acquisition_integrates_over(monkeypat
     assert len(seen) == 2 and all(not p and n <= 3 for p, n, _ in seen)
     assert max(n for _, n, _ in seen) == 3
     seen.clear()
-    run(QLogNEHVI(n_init=10, max_baseline=50, **FAST), problem, budget=12, seed=1)
+    run(QLogNEHVI(n_init=10, max_baseline=50, prune_samples=None, **FAST), problem,
+        budget=12, seed=1)
     assert [(p, n) for p, n, _ in seen] == [(True, 10)]  # below the cap: BoTorch's pruning
+    seen.clear()
+    run(QLogNEHVI(n_init=10, **FAST), problem, budget=12, seed=1)  # prune_samples=512
+    assert len(seen) == 1 and not seen[0][0] and seen[0][1] <= 10  # pruned here
 
 
 def test_max_baseline_left_at_null_keeps_the_hash_of_configs_without_it():
@@ -342,9 +347,10 @@ def test_the_reference_yaml_pins_the_earlier_settings_and_keeps_their_config_has
     node = OmegaConf.to_container(OmegaConf.load(
         REPO / "conf" / "algorithm" / "qlognehvi_reference.yaml"))
     alg = QLogNEHVI(**{k: v for k, v in node.items() if not k.startswith("_")})
-    assert (alg.cached_posterior, alg.init_batch_limit, alg.refit_every, alg.refit_guard) \
-        == (False, None, 1, None)
-    added = ("cached_posterior", "init_batch_limit", "refit_every", "refit_guard", "max_baseline")
+    assert (alg.cached_posterior, alg.init_batch_limit, alg.refit_every, alg.refit_guard,
+            alg.prune_samples) == (False, None, 1, None, None)
+    added = ("cached_posterior", "init_batch_limit", "refit_every", "refit_guard",
+             "prune_samples", "max_baseline")
     earlier = {k: v for k, v in node.items() if k not in added}
     run = {"seed": 0, "budget": 300, "problem": {"_target_": "x.Problem"}}
     assert config_hash(OmegaConf.create({**run, "algorithm": node})) \
