@@ -96,6 +96,7 @@ class _Cache:
     const: torch.Tensor   # (b, 1) constant prior mean (standardised units)
     y_mean: torch.Tensor  # (b, 1) outcome standardisation
     y_std: torch.Tensor   # (b, 1)
+    L: torch.Tensor       # (b, n, n) Cholesky factor of K + s^2 I
 
 
 def _is_raw(key: str) -> bool:
@@ -429,7 +430,7 @@ class GPSurrogate(Surrogate):
             alpha = torch.cholesky_solve((y - const).unsqueeze(-1), L)
             tf = part.outcome_transform
             cache = _Cache(part, Xn, alpha, Linv, const,
-                           tf.means.reshape(-1, 1), tf.stdvs.reshape(-1, 1))
+                           tf.means.reshape(-1, 1), tf.stdvs.reshape(-1, 1), L)
         if not all(torch.isfinite(t).all() for t in (alpha, Linv, const)):
             raise SurrogateError("non-finite GP weights (singular covariance)")
         return cache

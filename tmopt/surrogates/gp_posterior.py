@@ -16,7 +16,7 @@ baseline, with pending points appended) together with ``V = L^-1 K(X_train, Z)``
 posterior mean and covariance. A later call whose leading rows are those points (every
 acquisition call: ``[X_baseline, X]``) computes only the new rows:
 
-    V_r   = L^-1 K(X_train, X_r)                                   O(n^2 q)
+    V_r   = L^-1 K(X_train, X_r)  (triangular solve)               O(n^2 q)
     C_rz  = K(X_r, Z) - V_r^T V_z,  C_rr = K(X_r, X_r) - V_r^T V_r   O(n r q)
 
 and the covariance is returned as :class:`JointCovariance`, a linear operator whose rows
@@ -59,8 +59,9 @@ class CachedJointGP(GPyTorchModel):
         self._base = base
         self._kernel = c.part.covar_module
         self._transform = c.part.input_transform
-        # (b, n, d), (b, n, n), (b, n, 1): normalised inputs, L^-1, (K + s^2 I)^-1 (y - c)
-        self._Xt, self._Linv, self._alpha = c.Xn, c.Linv, c.alpha
+        # (b, n, d), (b, n, n), (b, n, 1): normalised inputs, Cholesky factor L of
+        # K + s^2 I, (K + s^2 I)^-1 (y - c)
+        self._Xt, self._L, self._alpha = c.Xn, c.L, c.alpha
         self._const, self._y_mean, self._y_std = c.const, c.y_mean, c.y_std  # (b, 1) each
         self._num_outputs = c.Xn.shape[0]
         self._known: tuple[torch.Tensor, ...] | None = None  # Z, Zn, V, mean, cov
@@ -109,8 +110,8 @@ class CachedJointGP(GPyTorchModel):
     def _joint(self, X: torch.Tensor, c: int):
         """Mean ``(..., b, N)`` and covariance ``(..., b, N, N)`` of f at X (standardised).
 
-        The t-batch of X is folded into the columns (one matmul with L^-1 per output,
-        not one per batch element: torch would copy L^-1 for every element).
+        The t-batch of X is folded into the columns (one triangular solve per output,
+        not one per batch element: torch would copy L for every element).
         """
         b, batch = self._num_outputs, X.shape[:-2]
         Xn = self._transform(X)                                          # (..., N, d)
@@ -118,7 +119,9 @@ class CachedJointGP(GPyTorchModel):
         r, d = rows.shape[-2], rows.shape[-1]
         flat = rows.reshape(-1, d)                                       # (B r, d)
         K = self._kernel.forward(self._Xt, flat.expand(b, -1, -1))        # (b, n, B r)
-        V = self._Linv @ K                                               # (b, n, B r)
+        # L^-1 K by a triangular solve: it reads half of what L^-1 @ K reads (the
+        # product is memory-bound), 2-3.6x faster forwards + backwards at n = 300-697
+        V = torch.linalg.solve_triangular(self._L, K, upper=False)        # (b, n, B r)
         mean = self._const + (K.mT @ self._alpha).squeeze(-1)            # (b, B r)
         n, B = V.shape[1], batch.numel()                                 # B = 1 if no batch
         Vb = V.reshape(b, n, B, r).permute(2, 0, 3, 1)                   # (B, b, r, n)
