@@ -196,6 +196,24 @@ class QLogNEHVI(Algorithm):
                               rbf_fallback=False, seed=self.seed)
         self.iteration = 0
         self.timing: dict[str, float] = {}
+        minutes = self.expected_minutes()
+        if minutes >= LONG_RUN_MINUTES:  # say so before a long run starts
+            log.warning("%s: %d evaluations at D = %d: expect roughly %.0f min of one core "
+                        "for the GP fits and acquisitions (docs/speed.md); one progress "
+                        "line per iteration follows", self.name, self.budget, p.n_var, minutes)
+
+    def expected_minutes(self) -> float:
+        """Rough CPU minutes of this run's BO iterations on one core of the benchmark
+        machine: the per-iteration costs that ``experiments/bench_speed.py`` measured on
+        the stiffness problem (D = 18, 6 GP outputs), interpolated at each iteration's
+        number of designs; other problems differ by their dimension and outputs."""
+        table = COST_DEFAULT if self.cached_posterior else COST_REFERENCE
+        n0 = self.initial_sample_size(self.problem)
+        sizes = np.arange(n0, self.budget, self.q)
+        if self.max_iter is not None:
+            sizes = sizes[: self.max_iter]
+        xs = sorted(table)
+        return float(np.interp(sizes, xs, [table[x] for x in xs]).sum()) / 60.0
 
     def has_next(self) -> bool:
         """False once ``max_iter`` BO iterations followed the initial sample."""
@@ -327,6 +345,14 @@ class QLogNEHVI(Algorithm):
                 f"algorithm {self.name}: only {len(self.U)} of {self.n_evals} designs "
                 f"evaluated without failure on problem {p.name}; the GPs need at least 2")
 
+
+#: A run expected to take longer (CPU minutes) says so when it starts.
+LONG_RUN_MINUTES = 5.0
+#: CPU seconds per iteration at n designs (stiffness problem, D = 18; docs/speed.md):
+#: the default settings (experiments/bench_speed.py) and the reference preset (Table 3's
+#: runs, docs/results.md "qLogNEHVI's cost").
+COST_DEFAULT = {100: 3.0, 300: 4.5, 500: 8.0, 697: 12.0}
+COST_REFERENCE = {50: 5.0, 200: 15.0, 300: 60.0, 500: 240.0, 697: 420.0}
 
 #: Where the reference point's nadir is taken (see :func:`reference_nadir`).
 REFERENCE_RULES = ("feasible", "front", "all")
