@@ -232,6 +232,9 @@ def acquisition_call_ms(problem, data, n: int) -> dict[str, float]:
 
 def section_qlognehvi(sizes, quick: bool, profile: bool, archive: Path | None = None,
                       variants: list[str] | None = None) -> float:
+    import logging
+
+    logging.getLogger("tmopt.algorithms.qlognehvi").setLevel(logging.ERROR)  # no run notice
     warm_up_botorch()
     with Clock() as c:
         problem, data = stiffness_archive(max(sizes), archive)
