@@ -207,7 +207,7 @@ class GPSurrogate(Surrogate):
                             warm=False, start=state["hyperparameters"])
         self.fit_info = dict(state["fit_info"])
         self._warm, self._since_opt, self._d = state["warm"], int(state["since_opt"]), X.shape[1]
-        self._X_fit = X
+        self._X_fit = X.copy()
         return self
 
     def _fit(self, X: np.ndarray, Y: np.ndarray) -> None:
@@ -218,7 +218,7 @@ class GPSurrogate(Surrogate):
         self._surprise_seen = None
         if not self._keep_hyperparameters(Xt, Yt, new):
             self._fit_stages(X, Y, Xt, Yt)
-        self._d, self._X_fit = X.shape[1], X
+        self._d, self._X_fit = X.shape[1], X.copy()
         self.fit_info["seconds"] = time.perf_counter() - start
         if self._surprise_seen is not None:  # the guard's statistic, refit or not
             self.fit_info["surprise"] = self._surprise_seen
