@@ -89,9 +89,10 @@ class Clock:
 # ---- qLogNEHVI --------------------------------------------------------------------------
 def algorithm_from_yaml(name: str, **overrides):
     """conf/algorithm/<name>.yaml built as the CLI builds it (plus overrides)."""
-    from tmopt.build import build_algorithm
+    from tmopt.run.build import build_algorithm
+    from tmopt.run.cli import option_config
 
-    node = OmegaConf.load(REPO / "conf" / "algorithm" / f"{name}.yaml")
+    node = option_config("algorithm", name)
     for key, value in overrides.items():
         node[key] = value
     return build_algorithm(OmegaConf.create({"algorithm": node}), name)
@@ -105,9 +106,9 @@ def stiffness_archive(n: int, path: Path | None = None):
     baseline at 500 designs, against ~200 in qLogNEHVI's own runs), and the reference's
     cost grows with that number."""
     from tmopt.algorithms.mgsaea import MGSAEAIPC
-    from tmopt.archive import read_archive
+    from tmopt.evaluation.archive import read_archive
     from tmopt.problems.stiffness import StiffnessProblem
-    from tmopt.runner import run_optimisation
+    from tmopt.run.runner import run_optimisation
     from tmopt.surrogates.rbf import RBFSurrogate
 
     problem = StiffnessProblem()
@@ -134,7 +135,7 @@ def warm_up_botorch() -> None:
 def time_qlognehvi(name: str, problem, data, n: int, iters: int, profile: bool = False,
                    **overrides) -> dict:
     """Per-iteration CPU/wall of ``ask`` at archive size n (see the module docstring)."""
-    from tmopt.problems.evaluator import EvaluatedBatch, Evaluator
+    from tmopt.evaluation.evaluator import EvaluatedBatch, Evaluator
 
     alg = algorithm_from_yaml(name, **overrides)
     alg.setup(problem, budget=n + 5 * iters + 5, seed=0)
@@ -195,7 +196,7 @@ def acquisition_call_ms(problem, data, n: int) -> dict[str, float]:
     )
     from botorch.sampling import SobolQMCNormalSampler
 
-    from tmopt.problems.evaluator import EvaluatedBatch
+    from tmopt.evaluation.evaluator import EvaluatedBatch
     from tmopt.surrogates.gp_posterior import CachedJointGP
 
     alg = algorithm_from_yaml("qlognehvi")

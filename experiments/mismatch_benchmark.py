@@ -26,10 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-EFFECTS = ("actuation_gain", "actuation_delay", "stiffness_cross_coupling", "cubic_stiffness",
-           "stiffness_drift", "bias_drift", "rotation_coupling", "sensing_cross_talk",
-           "readout_scale", "geometry_error", "glitch", "colored_noise",
-           "actuation_quantisation")  # fmt: skip
+from tmopt.mismatch.effects import EFFECT_NAMES  # every catalogue effect, in its order
+
 PAIRS = (
     ("actuation_gain", "bias_drift"), ("cubic_stiffness", "glitch"),
     ("actuation_delay", "stiffness_drift"), ("geometry_error", "readout_scale"),
@@ -51,7 +49,7 @@ UNSEEN = (
 def cases(quick: bool) -> list[dict]:
     out = []
     seed = 1000
-    for name in EFFECTS:
+    for name in EFFECT_NAMES:
         for level in ("near", "large"):
             out.append({"set": f"single-{level}", "effects": [(name, level)], "settings": {},
                         "seed": (seed := seed + 1)})  # fmt: skip
@@ -187,7 +185,7 @@ def summarise(rows: list[dict]) -> str:
 def per_effect(rows: list[dict]) -> str:
     lines = ["| effect | near: detected / named (found) | large: detected / named (found) |",
              "|---|---|---|"]  # fmt: skip
-    for name in EFFECTS:
+    for name in EFFECT_NAMES:
         cells = []
         for lv in ("near", "large"):
             r = next((r for r in rows if r["truth"] == f"{name}:{lv}" and r["set"].startswith(

@@ -30,12 +30,14 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
+from tmopt.mismatch.effects import EFFECTS
+
 BIASING = ("actuation_gain", "actuation_delay", "cubic_stiffness", "stiffness_drift",
            "geometry_error", "readout_scale")  # fmt: skip
 BASE_TM1 = "2e-6@300"
 BASE_TM2 = "3e-5@500"
 K3 = 100.0
-PLAUSIBLE_K3 = 1e3
+PLAUSIBLE_K3 = EFFECTS["cubic_stiffness"].plausible  # the catalogue's prior for k3
 
 
 def part_a(seeds: int, out: Path) -> str:

@@ -83,7 +83,7 @@ def run_sweep(study: str, seeds: int, out: Path) -> None:
 
 def heldout_m(run: Path, x: np.ndarray) -> float:
     """Mean M (default threshold) of design x over the held-out noise seeds."""
-    from tmopt.build import build_problem
+    from tmopt.run.build import build_problem
 
     cfg = OmegaConf.load(run / ".hydra" / "config.yaml")
     values = []
@@ -96,9 +96,9 @@ def heldout_m(run: Path, x: np.ndarray) -> float:
 def run_values(run: Path, metrics: dict, keys, at: int | None) -> dict | None:
     """The run's values at its end, or after its first ``at`` evaluations (None if the
     run has fewer): IGD/HV of the feasible front, held-out M of the chosen design."""
-    from tmopt.archive import read_archive
-    from tmopt.build import build_problem
-    from tmopt.outputs import final_choice, indicator_values, reference_front
+    from tmopt.evaluation.archive import read_archive
+    from tmopt.run.build import build_problem
+    from tmopt.run.outputs import final_choice, indicator_values, reference_front
 
     data = read_archive(run / "archive.h5")
     if at is not None:

@@ -8,9 +8,9 @@ from scipy.stats import qmc
 
 from tmopt.algorithms.base import AlgorithmConfigError
 from tmopt.algorithms.qlognehvi import QLogNEHVI, reference_nadir
-from tmopt.problems.evaluator import EvaluatedBatch, Evaluator
+from tmopt.evaluation.evaluator import EvaluatedBatch, Evaluator
 from tmopt.problems.suites import SUITE_PROBLEMS, PymooBenchmark
-from tmopt.runner import run_optimisation
+from tmopt.run.runner import run_optimisation
 
 from .contract import algorithm_from_yaml, cli_metrics, drive_to_budget, run
 
@@ -247,7 +247,7 @@ def test_a_resume_takes_archived_designs_and_checkpointed_gps_and_ends_identical
 
 def test_a_run_killed_between_its_fit_and_the_evaluations_resumes_identical(
         tmp_path, monkeypatch, whole):
-    from tmopt.problems.evaluator import Evaluator
+    from tmopt.evaluation.evaluator import Evaluator
     from tmopt.surrogates.gp import GPSurrogate
 
     real = Evaluator.evaluate
@@ -321,7 +321,7 @@ def test_max_baseline_caps_the_designs_the_acquisition_integrates_over(monkeypat
 def test_max_baseline_left_at_null_keeps_the_hash_of_configs_without_it():
     from omegaconf import OmegaConf
 
-    from tmopt.config import config_hash
+    from tmopt.run.config import config_hash
 
     base = {"seed": 0, "budget": 697, "problem": {"_target_": "x.Problem"},
             "algorithm": {"_target_": "tmopt.algorithms.qlognehvi.QLogNEHVI", "q": 5}}
@@ -336,27 +336,25 @@ def test_max_baseline_left_at_null_keeps_the_hash_of_configs_without_it():
 
 
 def test_the_reference_yaml_pins_the_earlier_settings_and_keeps_their_config_hash():
-    """conf/algorithm/qlognehvi_reference.yaml: the settings before docs/speed.md; its
-    config hash equals that of the same node without the keys added since (earlier runs)."""
+    """algorithm=qlognehvi_reference: the settings before docs/speed.md; its config hash
+    equals that of the same node without the arguments added since (earlier runs)."""
     from omegaconf import OmegaConf
 
-    from tmopt.config import config_hash
+    from tmopt.run.cli import option_config
+    from tmopt.run.config import config_hash
 
-    from .contract import REPO
-
-    node = OmegaConf.to_container(OmegaConf.load(
-        REPO / "conf" / "algorithm" / "qlognehvi_reference.yaml"))
+    node = OmegaConf.to_container(option_config("algorithm", "qlognehvi_reference"))
     alg = QLogNEHVI(**{k: v for k, v in node.items() if not k.startswith("_")})
     assert (alg.cached_posterior, alg.init_batch_limit, alg.refit_every, alg.refit_guard,
             alg.prune_samples) == (False, None, 1, None, None)
+    assert (alg.raw_samples, alg.acq_maxiter, alg.gp_max_iter) == (128, 100, 200)
     added = ("cached_posterior", "init_batch_limit", "refit_every", "refit_guard",
              "prune_samples", "max_baseline")
     earlier = {k: v for k, v in node.items() if k not in added}
     run = {"seed": 0, "budget": 300, "problem": {"_target_": "x.Problem"}}
     assert config_hash(OmegaConf.create({**run, "algorithm": node})) \
         == config_hash(OmegaConf.create({**run, "algorithm": earlier}))
-    default = OmegaConf.to_container(
-        OmegaConf.load(REPO / "conf" / "algorithm" / "qlognehvi.yaml"))
+    default = OmegaConf.to_container(option_config("algorithm", "qlognehvi"))
     assert config_hash(OmegaConf.create({**run, "algorithm": default})) \
         != config_hash(OmegaConf.create({**run, "algorithm": earlier}))
 

@@ -8,8 +8,8 @@ import math
 import pytest
 
 from tmopt.mismatch.__main__ import main
-from tmopt.mismatch.recording import recording_from_simulation, write_recording
 from tmopt.physics import MultiSine, SimulationConfig, simulate
+from tmopt.physics.recording import recording_from_simulation, write_recording
 
 
 @pytest.fixture(scope="module")

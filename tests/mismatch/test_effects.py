@@ -8,21 +8,21 @@ kinematic check stays consistent; readout effects change only their readout.
 
 from __future__ import annotations
 
+import ast
 import copy
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+import tmopt
 from tmopt.mismatch.diagnose import Settings, evaluate, fit_state
-from tmopt.mismatch.effects import (
-    CATALOGUE,
-    ActuationQuantisation,
-    Context,
-    Glitch,
-    glitch_shape,
-    rotation_series,
-)
+from tmopt.mismatch.effects import CATALOGUE, Context, Effect
+from tmopt.mismatch.effects.actuation_quantisation import ActuationQuantisation
+from tmopt.mismatch.effects.base import discover
+from tmopt.mismatch.effects.glitch import Glitch, glitch_shape
+from tmopt.mismatch.effects.rotation_coupling import rotation_series
 from tmopt.mismatch.fit import (
     AXES,
     data_from_result,
@@ -39,7 +39,9 @@ SETTINGS = Settings()
 
 @pytest.fixture(scope="module")
 def clean():
-    res = simulate(REF1, REF2, SimulationConfig(duration=600.0), seed=11)
+    # the round-one spacecraft acceleration: the geometry error acts through f_B
+    cfg = SimulationConfig(duration=600.0, fb_bias=(1e-10, 1e-10), fb_sigma=1e-10)
+    res = simulate(REF1, REF2, cfg, seed=11)
     return data_from_result(res)
 
 
@@ -237,12 +239,63 @@ def test_quantisation_step_is_recovered(clean):
     assert np.all(np.abs(beta - 1) < 4.5 * sd + 0.05), (beta, sd)
 
 
-def test_catalogue_has_the_required_names():
-    names = {e.name for e in CATALOGUE}
-    assert names == {
-        "actuation_gain", "actuation_delay", "stiffness_cross_coupling", "cubic_stiffness",
-        "stiffness_drift", "bias_drift", "rotation_coupling", "sensing_cross_talk",
-        "readout_scale", "geometry_error", "glitch", "colored_noise", "actuation_quantisation",
-    }  # fmt: skip
+def test_every_effect_is_one_module_with_both_sides():
+    # one module per effect, named after it, holding how it is made and how it is found
+    assert len(CATALOGUE) >= 13 and len({e.name for e in CATALOGUE}) == len(CATALOGUE)
+    for e in CATALOGUE:
+        cls = type(e)
+        assert cls.__module__ == f"tmopt.mismatch.effects.{e.name}", e.name
+        assert cls.inject is not Effect.inject and cls.candidates is not Effect.candidates
+        assert e.parameter and e.unit and e.limit > 0 and e.default_channel in e.channels
+        assert e.calibration is not None and e.calibration.channel in e.channels
     assert all(e.explanation and e.needs for e in CATALOGUE)
     assert AXES == ("x1", "x2", "y1", "y2")
+
+
+def test_each_effect_name_has_one_definition():
+    # outside its own module no code of the package spells an effect's name (the physics
+    # kernel's Perturbations slots are named after the perturbation, not the effect)
+    root = Path(tmopt.__file__).parent
+    names = {e.name for e in CATALOGUE}
+    seen = {}
+    for path in root.rglob("*.py"):
+        if path.parent.name == "physics":
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Constant) and node.value in names:
+                seen.setdefault(node.value, set()).add(path.relative_to(root).as_posix())
+    for name in names:
+        assert seen[name] == {f"mismatch/effects/{name}.py"}, (name, seen[name])
+
+
+def test_non_profiled_effects_give_regressors_without_a_residual(clean):
+    # what an information matrix of a planned excitation needs: columns from data alone
+    basis = null_basis(clean.geometry)
+    for e in CATALOGUE:
+        if e.profiled:
+            with pytest.raises(ValueError, match="searched on a residual"):
+                e.regressors(clean, basis)
+            continue
+        cands = e.regressors(clean, basis)
+        if e.untestable(Context(clean, basis)) is not None:  # e.g. no attitude witnesses
+            assert cands == []
+            continue
+        assert cands and all(c.columns and c.effect == e.name for c in cands), e.name
+
+
+@pytest.mark.parametrize("body, match", [
+    ("class Bar(Effect):\n    name = 'bar'\n", "module's name 'foo'"),
+    ("X = 1\n", "exactly one Effect"),
+    ("class A(Effect):\n    name = 'foo'\n\n\nclass B(Effect):\n    name = 'foo'\n",
+     "exactly one Effect"),
+])  # fmt: skip
+def test_the_registry_holds_one_effect_per_module_named_after_it(tmp_path, monkeypatch,
+                                                                  body, match):  # fmt: skip
+    name = "fx_" + tmp_path.name  # a fresh package each case (imports are cached)
+    pkg = tmp_path / name
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "foo.py").write_text("from tmopt.mismatch.effects.base import Effect\n\n\n" + body)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    with pytest.raises(TypeError, match=match):
+        discover(name, [str(pkg)])

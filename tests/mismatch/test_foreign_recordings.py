@@ -11,7 +11,7 @@ from tmopt.mismatch.__main__ import main
 from tmopt.mismatch.diagnose import diagnose
 from tmopt.mismatch.fit import data_from_recording
 from tmopt.mismatch.generate import calibrated_injection, generate_recording
-from tmopt.mismatch.recording import Recording, write_recording
+from tmopt.physics.recording import Recording, write_recording
 
 
 def test_without_witnesses_rotation_coupling_is_reported_untestable(tmp_path):

@@ -14,31 +14,31 @@ Implements
     BoTorch's ``qLogNoisyExpectedHypervolumeImprovement`` and ``optimize_acqf`` do the
     work; nothing of the acquisition is written here.
 
-Parameters (constructor arguments, default, meaning). The defaults are the fast settings
-of docs/speed.md (~10x less CPU per run); ``conf/algorithm/qlognehvi_reference.yaml``
-pins the earlier ones (shown as "was"), which reproduce earlier runs bit for bit:
-    n_init (None): size of the scrambled Sobol initial sample; None = 2 (D + 1), BoTorch's
+Parameters (keyword arguments; defaults: the constructor's signature). The defaults are the
+fast settings of docs/speed.md (~10x less CPU per run); ``algorithm=qlognehvi_reference``
+pins the earlier ones, which reproduce earlier runs bit for bit:
+    n_init: size of the scrambled Sobol initial sample; None = 2 (D + 1), BoTorch's
         tutorial rule (11 D - 1 would spend 197 of 300 evaluations at D = 18).
-    q (5): designs per iteration (batch size), the same as MGSAEA's mu.
-    num_restarts (4), raw_samples (256; was 128): multi-start L-BFGS-B of the
-        acquisition, from the best of ``raw_samples`` Sobol points.
-    acq_maxiter (30; was 100): L-BFGS-B iterations per restart. Measured on the stiffness
-        problem at 300 designs: the joint qLogNEHVI of the 5 chosen designs 0.96x of the
-        earlier setting's expected improvement for 0.3x its cost (docs/speed.md).
-    mc_samples (64): quasi-Monte-Carlo samples of the joint posterior (seeded Sobol).
-    ref_offset (0.1): reference point = nadir + ref_offset in objectives normalised to
+    q: designs per iteration (batch size), the same as MGSAEA's mu.
+    num_restarts, raw_samples: multi-start L-BFGS-B of the acquisition, from
+        the best of ``raw_samples`` Sobol points.
+    acq_maxiter: L-BFGS-B iterations per restart. Measured on the stiffness problem at 300
+        designs: the fast setting's batch has 0.96x the joint expected improvement of the
+        earlier 128 raw samples x 100 iterations for 0.3x its cost (docs/speed.md).
+    mc_samples: quasi-Monte-Carlo samples of the joint posterior (seeded Sobol).
+    ref_offset: reference point = nadir + ref_offset in objectives normalised to
         [0, 1] over the data (rule below).
-    ref_point ("all"): whose nadir: "all" = the worst value per objective over every
+    ref_point: whose nadir: "all" = the worst value per objective over every
         design (1 + ref_offset in normalised units); "feasible" = over the feasible designs;
         "front" = over their non-dominated set (the rule before 2026-11-21). The tighter
         rules confine the front: see reference_nadir and
         ``experiments/qlognehvi_reference_point.py``.
-    eta (1e-3): temperature of the (fat-tailed) sigmoid feasibility weight, applied
+    eta: temperature of the (fat-tailed) sigmoid feasibility weight, applied
         to constraints divided by their largest observed magnitude.
-    gp_max_iter (50; was 200): L-BFGS-B iterations per GP hyperparameter fit (warm-started
-        from the last fit, so capped fits continue where the last one stopped).
-    kernel ("rbf"): GP kernel, "rbf" or "matern52" (:class:`tmopt.surrogates.gp.GPSurrogate`).
-    max_baseline (None): at most this many observed designs as qLogNEHVI's baseline
+    gp_max_iter: L-BFGS-B iterations per GP hyperparameter fit (warm-started from the last
+        fit, so capped fits continue where the last one stopped).
+    kernel: GP kernel, "rbf" or "matern52" (:class:`tmopt.surrogates.gp.GPSurrogate`).
+    max_baseline: at most this many observed designs as qLogNEHVI's baseline
         X_baseline: BoTorch's own pruning keeps every design with a positive posterior
         probability of being Pareto optimal (~230 of 530 on the stiffness problem, where
         the GPs are unsure). Through GPyTorch the joint posterior over that baseline was
@@ -47,26 +47,26 @@ pins the earlier ones (shown as "was"), which reproduce earlier runs bit for bit
         used 64) is only a modelling choice now. With a cap, BoTorch's
         ``prune_inferior_points_multi_objective`` keeps the ``max_baseline`` most probable
         ones. None = BoTorch's default (no cap).
-    max_iter (None): BO iterations (of q evaluations) after the initial sample, after which
+    max_iter: BO iterations (of q evaluations) after the initial sample, after which
         the algorithm stops proposing; None = until the budget is spent. The GPs are exact,
         so budgets of thousands of evaluations (the ``paper`` preset's 10 000) need a cap:
         max_iter = 100 stops after 2 (D + 1) + 500 evaluations, like MGSAEA's.
-    threads (1): torch intra-op threads while fitting and optimising (restored afterwards);
+    threads: torch intra-op threads while fitting and optimising (restored afterwards);
         None = torch's setting. The tensors here are small (a few hundred points), so
         one thread is faster than the OpenMP hand-off, by ~6x on a loaded two-core machine.
-    cached_posterior (True; was False): the acquisition sees the GPs through
+    cached_posterior: the acquisition sees the GPs through
         :class:`tmopt.surrogates.gp_posterior.CachedJointGP`, the same exact posterior
         that reuses the baseline's rows instead of recomputing the joint posterior over
         baseline and candidate at every evaluation (tested equal to BoTorch's values and
         gradients).
-    init_batch_limit (256; was None = num_restarts): raw samples scored per call when
-        choosing the restarts (one call instead of 32; the scores are the same).
-    refit_every (5; was 1), refit_guard (4.0; was None): the GP hyperparameters are
+    init_batch_limit: raw samples scored per call when choosing the restarts (None =
+        num_restarts at a time, 32 calls at 128 raw samples; one call scores the same).
+    refit_every, refit_guard: the GP hyperparameters are
         re-optimised at every ``refit_every``-th iteration; in between the GPs keep them
         and are conditioned on the new designs (one Cholesky), unless the new designs'
         mean squared standardised leave-one-out error exceeds ``refit_guard`` for some
         output (:class:`GPSurrogate`'s guard), which re-optimises at once.
-    prune_samples (512; was None = BoTorch's 2048): posterior samples with which the
+    prune_samples: posterior samples (None = BoTorch's 2048) with which the
         baseline is pruned to the designs with a positive probability of being Pareto
         optimal (``prune_inferior_points_multi_objective``); sampling all n designs
         jointly is O(samples x n^2) per output: 1.0 s CPU at 500 designs with 2048
@@ -120,10 +120,9 @@ from botorch.sampling import SobolQMCNormalSampler
 from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
 from scipy.stats import qmc
 
-from tmopt.algorithms._evolution import check_int, check_number
-from tmopt.algorithms.base import Algorithm, AlgorithmConfigError
+from tmopt.algorithms.base import Algorithm, AlgorithmConfigError, check_int, check_number
+from tmopt.evaluation.evaluator import EvaluatedBatch
 from tmopt.problems.base import ExpensiveProblem
-from tmopt.problems.evaluator import EvaluatedBatch
 from tmopt.surrogates.gp import KERNELS, GPSurrogate
 from tmopt.surrogates.gp_posterior import CachedJointGP
 
@@ -136,9 +135,8 @@ class QLogNEHVI(Algorithm):
     """qLogNEHVI (see the module docstring for parameters and the algorithm)."""
 
     name = "qlognehvi"
-    uses_surrogate = True
 
-    def __init__(self, n_init: int | None = None, q: int = 5, num_restarts: int = 4,
+    def __init__(self, *, n_init: int | None = None, q: int = 5, num_restarts: int = 4,
                  raw_samples: int = 256, acq_maxiter: int = 30, mc_samples: int = 64,
                  ref_offset: float = 0.1, ref_point: str = "all",
                  eta: float = 1e-3, gp_max_iter: int = 50, kernel: str = "rbf",

@@ -9,8 +9,8 @@ import sys
 from tmopt.mismatch.calibration import FAMILY_ALPHA, LOCATE_ALPHA
 from tmopt.mismatch.diagnose import Settings, diagnose
 from tmopt.mismatch.fit import data_from_recording
-from tmopt.mismatch.recording import RecordingError, read_recording
 from tmopt.mismatch.report import write_report
+from tmopt.physics.recording import RecordingError, read_recording
 
 
 def _parser() -> argparse.ArgumentParser:

@@ -32,7 +32,7 @@ import numpy as np
 from scipy import stats
 
 from tmopt.mismatch import calibration as cal
-from tmopt.mismatch.effects import CATALOGUE, Candidate, Context
+from tmopt.mismatch.effects import CATALOGUE, EFFECTS, Candidate, Context
 from tmopt.mismatch.fit import (
     AXES,
     Column,
@@ -67,7 +67,7 @@ class State:
 
     eq_cols: list[Column]
     kin_cols: list[Column]
-    red: bool  # equation noise modelled as white + power-law red (colored_noise selected)
+    red: bool  # equation noise modelled as white + power-law red (a noise effect selected)
     eq_fit: FitResult
     eq_noise: SpatialNoise
     kin_fit: FitResult
@@ -193,7 +193,7 @@ class _Group:
         return float(self.n * math.log(self.rss0 / rss1))
 
 
-def _colored_noise_eval(cand: Candidate, state: State, fs: float) -> Evaluation:
+def _red_noise_eval(cand: Candidate, state: State, fs: float) -> Evaluation:
     """Whittle LR of white + power-law red vs white, per spatially whitened channel
     (2 parameters each: knee, exponent; the exponent is not identified under "white", so
     the p-value carries its grid as a Davies/Bonferroni trials factor)."""
@@ -296,7 +296,7 @@ def evaluate(data: Data, basis: np.ndarray, state: State, settings: Settings,
                 continue
             if cand.group == "noise":
                 if not state.red:
-                    out.append(_colored_noise_eval(cand, state, data.fs))
+                    out.append(_red_noise_eval(cand, state, data.fs))
                 continue
             g = groups[cand.group]
             lam = g.glr(cand.columns) if cand.twin is None else _joint(cand, groups)
@@ -467,7 +467,7 @@ def _still_needed(data, basis, chosen: list[Evaluation], i: int, settings: Setti
     st = _rebuild(data, basis, others, settings)
     cand = chosen[i].candidate
     if cand.group == "noise":
-        ev = _colored_noise_eval(copy.copy(cand), st, data.fs)
+        ev = _red_noise_eval(copy.copy(cand), st, data.fs)
         lam, dof, n, trials = ev.glr, ev.dof, ev.n_obs, len(RED_EXPONENTS)
     else:
         groups = {
@@ -504,11 +504,12 @@ def _significant(evals: list[Evaluation], alpha: float) -> list[Evaluation]:
 def _take_best(data, basis, state: State, sig: list[Evaluation], exclude: set[str],
                settings: Settings):  # fmt: skip
     """Add the significant candidate with the largest dBIC to the model: returns (it, its
-    near rivals within AMBIGUOUS_DBIC) and the refitted state. A glitch stays testable
-    (a record can hold several); any other chosen candidate joins ``exclude``."""
+    near rivals within AMBIGUOUS_DBIC) and the refitted state. A repeatable effect stays
+    testable (a record can hold several glitches); any other chosen candidate joins
+    ``exclude``."""
     best = max(sig, key=lambda e: e.dbic)
     alts = [e for e in sig if e is not best and best.dbic - e.dbic < cal.AMBIGUOUS_DBIC]
-    if best.candidate.effect != "glitch":
+    if not EFFECTS[best.candidate.effect].repeatable:
         exclude.add(best.candidate.key)
     return (best, alts), _add(data, basis, state, best, settings)
 

@@ -30,6 +30,7 @@ import numpy as np
 from scipy import signal
 
 from tmopt.physics.geometry import Geometry
+from tmopt.physics.recording import AXES
 
 __all__ = [
     "AXES",
@@ -50,8 +51,6 @@ __all__ = [
     "excitation_tones",
     "output_error",
 ]
-
-AXES: tuple[str, ...] = ("x1", "x2", "y1", "y2")
 
 
 @dataclass
@@ -133,7 +132,7 @@ def _longest_valid(rec) -> tuple[slice, list[str]]:
 
 
 def data_from_recording(rec) -> Data:
-    """A validated :class:`~tmopt.mismatch.recording.Recording` -> :class:`Data`.
+    """A validated :class:`~tmopt.physics.recording.Recording` -> :class:`Data`.
 
     Gaps (NaN samples) are not filled: the longest valid segment is analysed and a note
     says so (the kinematic check needs consecutive samples).

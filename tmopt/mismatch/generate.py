@@ -7,9 +7,11 @@
 name is a hash, its description is the user's, and it has the same channels whether an
 effect is present or not.  Python: :func:`generate_recording`.
 
-Settings the diagnosis tool may not have seen: excitation (:func:`excitation`: the
-paper's Fig. 6 motion, multi-sines, chirps, smoothed steps, none), noise scale, duration,
-sample rate, controller, stiffness and bias values.  Effect physics: ``injection.py``.
+Settings the diagnosis tool may not have seen (:class:`tmopt.physics.scenario.Settings`):
+excitation (the paper's Fig. 6 motion, multi-sines, chirps, smoothed steps, none), noise
+scale, duration, sample rate, controller, stiffness and bias values, and the simulator's
+physics options; every recording carries spacecraft jitter (:data:`SPACECRAFT_ACCELERATION`).
+Effect physics: one module per effect in :mod:`tmopt.mismatch.effects`.
 """
 
 from __future__ import annotations
@@ -26,8 +28,10 @@ from typing import Any
 
 import numpy as np
 
-from tmopt.mismatch.injection import AXES, EFFECT_NAMES, EFFECTS, Builder, Injection
-from tmopt.mismatch.recording import (
+from tmopt.mismatch.effects import CATALOGUE, EFFECT_NAMES, Builder, Injection, effect
+from tmopt.physics.geometry import Geometry
+from tmopt.physics.recording import (
+    AXES,
     ROTATION_CHANNELS,
     Recording,
     atomic_write,
@@ -35,242 +39,29 @@ from tmopt.mismatch.recording import (
     validate,
     write_recording,
 )
-from tmopt.physics.control import ControllerSettings
-from tmopt.physics.geometry import Geometry
+from tmopt.physics.scenario import Y_AXES, Settings, excitation, simulation_config
 from tmopt.physics.simulator import SimulationConfig, simulate
 
-__all__ = ["Settings", "GenerationError", "generate_recording", "write_generated",
-           "excitation", "simulation_config", "MAGNITUDES", "calibrated_injection",
+__all__ = ["GenerationError", "generate_recording", "write_generated", "MAGNITUDES",
+           "SPACECRAFT_ACCELERATION",
+           "calibrated_injection",
            "detectability", "calibration_table", "residual_families", "TRUTH_FORMAT",
            "main"]  # fmt: skip
 
 TRUTH_FORMAT = "tmopt-truth"
 TRUTH_VERSION = 1
-#: Table 1 per-sample noise at the paper's 10 Hz (ASD = sigma / sqrt(fs / 2)).
-TABLE1 = {"sigma_m1": 1e-11, "sigma_m2": 1e-8, "sigma_acc": 1e-12, "sigma_ele": 1e-12}
-PAPER_RATE = 10.0
-F_MAX = 1e-7  # actuator limit [m s^-2] (SimulationConfig.f_max)
-REF_LIMIT = 0.1 * 4e-3  # alpha2 D of Eq. 20: largest reference displacement [m]
+
+
+#: Spacecraft acceleration f_B of every recording (``SimulationConfig`` fields at their
+#: 10 Hz values; the scenario's rate rule scales ``fb_sigma`` with the rate and the noise
+#: scale): the round-one level of ``Y_AXES["round1"]``, not in Table 1 and off in the
+#: simulator's default, kept so recordings carry flight-like spacecraft jitter (and the
+#: geometry-error effect, which acts through f_B, stays visible).
+SPACECRAFT_ACCELERATION: dict[str, Any] = {k: Y_AXES["round1"][k] for k in ("fb_bias", "fb_sigma")}
 
 
 class GenerationError(ValueError):
     """A recording could not be generated (e.g. the effect made the loop diverge)."""
-
-
-@dataclass(frozen=True)
-class Settings:
-    """Run settings; defaults are the paper's (Table 1, Sec. 4.1, Fig. 6 motion).
-
-    ``stiffness`` = (k1xx, k2xx, k1yy, k2yy) [s^-2], ``bias`` = (fD1x, fD2x, fD1y, fD2y)
-    [m s^-2].  ``noise_scale`` multiplies every Table 1 noise and the f_B noise;
-    at other sample rates the per-sample sigmas scale with sqrt(fs / 10 Hz) so the noise
-    ASDs stay those of Table 1.  ``witnesses``: write the six ``sc_omega*`` channels in
-    every recording (zeros when the spacecraft does not rotate), so their presence
-    reveals nothing.
-    """
-
-    duration: float = 1200.0
-    sample_rate: float = 10.0
-    excitation: str = "paper"
-    noise_scale: float = 1.0
-    controller: str = "frbf_pid"
-    stiffness: tuple[float, float, float, float] = (1e-7, 1e-7, 1e-7, 1e-7)
-    bias: tuple[float, float, float, float] = (1e-10, 1e-10, 1e-10, 1e-10)
-    witnesses: bool = True
-    description: str = ""
-
-    def __post_init__(self) -> None:
-        for name in ("duration", "sample_rate"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a finite number in (0, inf); got {v!r}")
-        if self.duration * self.sample_rate < 64:
-            raise ValueError(f"duration * sample_rate must be >= 64 samples; got "
-                             f"{self.duration * self.sample_rate:g}")  # fmt: skip
-        if not (math.isfinite(self.noise_scale) and 0 <= self.noise_scale <= 1e3):
-            raise ValueError(f"noise_scale must be in [0, 1000]; got {self.noise_scale!r}")
-        for name in ("stiffness", "bias"):
-            v = tuple(getattr(self, name))
-            if len(v) != 4 or not all(math.isfinite(x) for x in v):
-                raise ValueError(f"{name} must be 4 finite numbers {list(AXES)}; got {v!r}")
-
-
-# --------------------------------------------------------------------------- excitation
-
-
-def excitation(spec: str, duration: float, fs: float) -> tuple[np.ndarray, np.ndarray, dict]:
-    """References (ref1, ref2) of the sensitive axes, each (N,), from a spec string.
-
-    * ``paper`` -- Fig. 6: ``5e-5 sin(2 pi t/300)``, ``3e-5 sin(2 pi t/500)``;
-    * ``multisine:A@P[@phase],...;A@P,...`` -- Eq. 17 per TM (``;`` separates TM1 from
-      TM2): amplitude A [m], period P [s], phase [rad]; ``x(0) = 0`` as in Eq. 17;
-    * ``chirp:A,f0,f1;A,f0,f1`` -- ``A sin(2 pi (f0 t + (f1 - f0) t^2 / (2 T)))`` [Hz];
-    * ``steps:A,P[,ramp];A,P[,ramp]`` -- levels +A, -A, +A, ... each held P s, reached by
-      raised-cosine ramps of ``ramp`` s (default: the shortest ramp whose peak
-      acceleration ``2 A pi^2 / (2 ramp^2)`` stays at 0.5 F_max, Eq. 20's alpha1);
-    * ``none`` -- no motion (the loop holds both TMs at zero).
-
-    Raises ValueError naming the spec when a reference leaves |x| <= 0.4 mm (alpha2 D,
-    Eq. 20), needs more than F_max = 1e-7 m s^-2, or has a tone at/above Nyquist.
-    """
-    t = np.arange(int(round(duration * fs))) / fs
-    kind, _, body = spec.partition(":")
-    kind = kind.strip().lower()
-    makers = {"paper": _paper, "multisine": _multisine, "chirp": _chirp, "steps": _steps,
-              "none": _none}  # fmt: skip
-    if kind not in makers:
-        raise ValueError(f"excitation {spec!r}: kind must be one of {sorted(makers)}")
-    try:
-        refs, info = makers[kind](body, t, fs)
-    except (ValueError, IndexError) as exc:
-        raise ValueError(f"excitation {spec!r}: {exc}") from None
-    for k, r in enumerate(refs, start=1):
-        if np.abs(r).max() > REF_LIMIT:
-            raise ValueError(f"excitation {spec!r}: TM{k} reference reaches "
-                             f"{np.abs(r).max():.3g} m > {REF_LIMIT:g} m (alpha2 D, Eq. 20)")
-    return refs[0], refs[1], {"spec": spec, "kind": kind, **info}
-
-
-def _tm_parts(body: str, n_fields: tuple[int, ...]) -> list[list[list[float]]]:
-    tms = body.split(";")
-    if len(tms) != 2:
-        raise ValueError("give both test masses, separated by ';'")
-    out = []
-    for tm in tms:
-        comps = []
-        for comp in tm.split(","):
-            vals = [float(v) for v in comp.replace("@", " ").split()]
-            if len(vals) not in n_fields:
-                raise ValueError(f"component {comp!r} needs {' or '.join(map(str, n_fields))} "
-                                 "numbers")  # fmt: skip
-            comps.append(vals)
-        out.append(comps)
-    return out
-
-
-def _tm_values(body: str, n_fields: tuple[int, ...]) -> list[list[float]]:
-    """``v,v,v;v,v,v``: one comma-separated parameter list per test mass."""
-    tms = body.split(";")
-    if len(tms) != 2:
-        raise ValueError("give both test masses, separated by ';'")
-    out = [[float(v) for v in tm.split(",")] for tm in tms]
-    for vals in out:
-        if len(vals) not in n_fields:
-            raise ValueError(f"{vals} needs {' or '.join(map(str, n_fields))} numbers")
-    return out
-
-
-def _sines(comps: list[list[float]], t: np.ndarray, fs: float) -> tuple[np.ndarray, float]:
-    x = np.zeros_like(t)
-    acc = 0.0
-    for comp in comps:
-        a, period, phase = comp[0], comp[1], comp[2] if len(comp) > 2 else 0.0
-        if a < 0 or period <= 0:
-            raise ValueError(f"amplitude must be >= 0 and period > 0; got {comp}")
-        w = 2 * math.pi / period
-        if w >= math.pi * fs:
-            raise ValueError(f"period {period} s is at/above Nyquist for {fs} Hz")
-        x += a * (np.sin(w * t + phase) - math.sin(phase))  # Eq. 17 with x(0) = 0
-        acc += a * w * w
-    return x, acc
-
-
-def _paper(body: str, t: np.ndarray, fs: float) -> tuple[list[np.ndarray], dict]:
-    if body:
-        raise ValueError("'paper' takes no parameters")
-    return _multisine("5e-5@300;3e-5@500", t, fs)
-
-
-def _multisine(body: str, t: np.ndarray, fs: float) -> tuple[list[np.ndarray], dict]:
-    refs, info = [], {}
-    for k, comps in enumerate(_tm_parts(body, (2, 3)), start=1):
-        x, acc = _sines(comps, t, fs)
-        _check_accel(acc, k)
-        refs.append(x)
-        info[f"tm{k}"] = [{"amplitude_m": c[0], "period_s": c[1],
-                           "phase_rad": c[2] if len(c) > 2 else 0.0} for c in comps]  # fmt: skip
-    return refs, info
-
-
-def _check_accel(acc: float, k: int) -> None:
-    if acc > F_MAX:
-        raise ValueError(f"TM{k} needs sum A w^2 = {acc:.3g} m s^-2 > F_max = {F_MAX:g}")
-
-
-def _chirp(body: str, t: np.ndarray, fs: float) -> tuple[list[np.ndarray], dict]:
-    refs, info = [], {}
-    span = t[-1] + 1 / fs
-    for k, vals in enumerate(_tm_values(body, (3,)), start=1):
-        a, f0, f1 = vals
-        if a < 0 or f0 < 0 or f1 < 0 or max(f0, f1) >= fs / 2:
-            raise ValueError(f"chirp needs A >= 0 and 0 <= f0, f1 < {fs / 2} Hz; got {vals}")
-        _check_accel(a * (2 * math.pi * max(f0, f1)) ** 2, k)
-        refs.append(a * np.sin(2 * math.pi * (f0 * t + (f1 - f0) * t**2 / (2 * span))))
-        info[f"tm{k}"] = {"amplitude_m": a, "f0_hz": f0, "f1_hz": f1}
-    return refs, info
-
-
-def _steps(body: str, t: np.ndarray, fs: float) -> tuple[list[np.ndarray], dict]:
-    refs, info = [], {}
-    for k, vals in enumerate(_tm_values(body, (2, 3)), start=1):
-        a, hold = vals[:2]
-        # default: peak acceleration A pi^2 / ramp^2 of a 2A raised cosine = 0.5 F_max
-        ramp = vals[2] if len(vals) > 2 else math.pi * math.sqrt(2 * a / F_MAX)
-        if a < 0 or hold <= 0 or ramp <= 0 or ramp > hold:
-            raise ValueError(f"steps need A >= 0 and 0 < ramp <= hold; got {vals}")
-        _check_accel(a * math.pi**2 / ramp**2, k)  # peak of a raised-cosine of height 2A
-        refs.append(_step_train(t, a, hold, ramp))
-        info[f"tm{k}"] = {"amplitude_m": a, "hold_s": hold, "ramp_s": ramp}
-    return refs, info
-
-
-def _step_train(t: np.ndarray, a: float, hold: float, ramp: float) -> np.ndarray:
-    """0 -> +A (first ramp, height A), then -A, +A, ... each switch a raised-cosine ramp."""
-    x = np.zeros_like(t)
-    level, target, start = 0.0, a, 0.0
-    while start <= t[-1]:  # switches at 0, hold, 2 hold, ...
-        s = np.clip((t - start) / ramp, 0.0, 1.0)
-        x += (target - level) * 0.5 * (1 - np.cos(np.pi * s))
-        level, target, start = target, -target, start + hold
-    return x
-
-
-def _none(body: str, t: np.ndarray, fs: float) -> tuple[list[np.ndarray], dict]:
-    if body:
-        raise ValueError("'none' takes no parameters")
-    return [np.zeros_like(t), np.zeros_like(t)], {}
-
-
-# --------------------------------------------------------------------------- simulation
-
-
-def simulation_config(settings: Settings, geometry: Geometry) -> SimulationConfig:
-    """The simulator's configuration for ``settings`` and the *true* geometry.
-
-    Noise: Table 1 sigmas (per sample at 10 Hz) times ``noise_scale`` times
-    ``sqrt(fs / 10 Hz)`` (same ASD at any rate).  Control: the per-sample incremental-PID
-    gains are rescaled to keep the continuous gains P = Kp, I = Ki/dt, D = Kd dt of the
-    paper's 10 Hz design (docs/decisions.md); the loop stays stable from 0.01 Hz to 1 kHz
-    (test_rescaled_controller_is_stable_at_every_rate).
-    """
-    fs = float(settings.sample_rate)
-    scale = settings.noise_scale * math.sqrt(fs / PAPER_RATE)
-    base = SimulationConfig()
-    ctl = ControllerSettings(base_gains=_rescale(base.control.base_gains, fs),
-                             y_gains=_rescale(base.control.y_gains, fs))  # fmt: skip
-    return SimulationConfig(
-        sample_rate=fs, duration=float(settings.duration), controller=settings.controller,
-        stiffness_1=(settings.stiffness[0], settings.stiffness[2]),
-        stiffness_2=(settings.stiffness[1], settings.stiffness[3]),
-        bias_1=(settings.bias[0], settings.bias[2]), bias_2=(settings.bias[1], settings.bias[3]),
-        **{k: v * scale for k, v in TABLE1.items()}, fb_sigma=base.fb_sigma * scale,
-        geometry=geometry, control=ctl, steady_after=min(300.0, float(settings.duration)),
-    )  # fmt: skip
-
-
-def _rescale(gains: tuple[float, float, float], fs: float) -> tuple[float, float, float]:
-    r = PAPER_RATE / fs  # dt / dt_paper
-    return (gains[0], gains[1] * r, gains[2] / r)
 
 
 def _injections(effects: Iterable[Any]) -> list[Injection]:
@@ -285,10 +76,9 @@ def _injections(effects: Iterable[Any]) -> list[Injection]:
         else:
             raise ValueError(f"effects must be Injection, dict or (name, magnitude[, channel]); "
                              f"got {e!r}")  # fmt: skip
-        if inj.name not in EFFECTS:
-            raise ValueError(f"unknown effect {inj.name!r}; choose from {list(EFFECT_NAMES)}")
+        effect(inj.name)  # a known effect, or ValueError naming the choices
         out.append(inj)
-    keys = [(i.name, i.channel or EFFECTS[i.name].default_channel) for i in out]
+    keys = [(i.name, i.channel or effect(i.name).default_channel) for i in out]
     dup = sorted({k for k in keys if keys.count(k) > 1})
     if dup:
         raise ValueError(f"the same effect twice on one channel: {dup}")
@@ -312,9 +102,9 @@ def generate_recording(
     nominal = Geometry()
     n = int(round(st.duration * st.sample_rate))
     builder = Builder(n, st.sample_rate, nominal, int(seed))
-    truths = [_effect_truth(inj, EFFECTS[inj.name].inject(inj, builder)) for inj in injections]
+    truths = [_effect_truth(inj, effect(inj.name).inject(inj, builder)) for inj in injections]
     ref1, ref2, exc = excitation(st.excitation, st.duration, st.sample_rate)
-    cfg = simulation_config(st, builder.geometry)
+    cfg = simulation_config(st, builder.geometry, **SPACECRAFT_ACCELERATION)
     res = simulate(ref1[None], ref2[None], cfg, int(seed), builder.perturbations())
     if res.diverged[0]:
         raise GenerationError(f"the closed loop diverged ({res.reason[0]}) with effects "
@@ -339,7 +129,7 @@ def _finish_channels(rec: Recording, builder: Builder, st: Settings) -> Recordin
 
 
 def _effect_truth(inj: Injection, params: dict[str, Any]) -> dict[str, Any]:
-    model = EFFECTS[inj.name]
+    model = effect(inj.name)
     channel = inj.channel or model.default_channel
     return {
         "name": inj.name, "channel": channel,
@@ -422,52 +212,22 @@ def _json(value: Any) -> Any:
 
 # --------------------------------------------------------------------------- magnitudes
 
-#: Calibrated magnitudes per effect (docs/mismatch-generator.md, "Magnitudes"): ``near``
-#: gives a detectability SNR of about 5, ``large`` about 50, for the default settings
-#: (paper excitation, 1200 s, 10 Hz, Table 1 noise; seed 101), on the given channel with
-#: the given options; output of :func:`calibration_table` (``--calibrate``).
-_CALIBRATED = (
-    # effect, channel, options, near, its SNR, large, its SNR, family of the largest SNR
-    ("actuation_gain", "x1", {}, 6.8e-06, 4.9, 7.1e-05, 51.4,
-     "eq"),
-    ("actuation_delay", "x1", {}, 5.3e-06, 5.0, 5.1e-05, 47.9,
-     "eq"),
-    ("stiffness_cross_coupling", "y1", {"source": "x1"}, 2.9e-09, 4.9, 3.1e-08, 51.8,
-     "eq"),
-    ("cubic_stiffness", "x1", {}, 4.3, 4.9, 45.0, 51.8,
-     "eq"),
-    ("stiffness_drift", "x1", {}, 7.7e-12, 4.8, 8.1e-11, 50.4,
-     "eq"),
-    ("bias_drift", "x1", {}, 2.8e-16, 5.0, 2.7e-15, 48.4,
-     "eq"),
-    ("rotation_coupling", "omega_z", {"profile": "slew"}, 8.6e-11, 5.0, 8.3e-10, 48.1,
-     "eq"),
-    ("sensing_cross_talk", "y1", {"source": "x1", "sensor": "disp"}, 0.0011, 4.9, 0.012, 53.1,
-     "kin_y1"),
-    ("readout_scale", "x1", {"sensor": "disp"}, 3.9e-06, 5.0, 3.7e-05, 47.8,
-     "kin_x1"),
-    ("geometry_error", "alpha", {}, 0.00063, 5.0, 0.0061, 48.5,
-     "eq"),
-    ("glitch", "x1", {"beta": 5.0, "shape": "shapelet"}, 1.5e-11, 5.0, 1.5e-10, 50.5,
-     "eq"),
-    ("colored_noise", "x1", {"exponent": 1.0}, 2.3e-12, 5.2, 7.1e-12, 49.4,
-     "eq"),
-    ("actuation_quantisation", "x1", {}, 2.7e-12, 5.2, 8.4e-12, 50.0,
-     "eq"),
-)
-_KEYS = ("channel", "options", "near", "snr_near", "large", "snr_large", "family")
-MAGNITUDES: dict[str, dict[str, Any]] = {row[0]: dict(zip(_KEYS, row[1:]))
-                                         for row in _CALIBRATED}  # fmt: skip
+#: Calibrated magnitudes per effect (each effect's ``calibration``, see
+#: :class:`tmopt.mismatch.effects.Calibration`): {name: {channel, options, near,
+#: snr_near, large, snr_large, family}}.
+MAGNITUDES: dict[str, dict[str, Any]] = {
+    e.name: asdict(e.calibration) for e in CATALOGUE if e.calibration is not None}
 
 
 def calibrated_injection(name: str, level: str, sign: float = 1.0) -> Injection:
     """The calibrated ``near``/``large`` injection of an effect (its channel and options)."""
+    model = effect(name)
     if name not in MAGNITUDES:
-        raise ValueError(f"unknown effect {name!r}; choose from {list(EFFECT_NAMES)}")
+        raise ValueError(f"{name}: no calibrated magnitudes")
     if level not in ("near", "large"):
         raise ValueError(f"level must be 'near' or 'large'; got {level!r}")
     cal = MAGNITUDES[name]
-    signed = cal[level] * (1.0 if sign >= 0 or not EFFECTS[name].signed else -1.0)
+    signed = cal[level] * (1.0 if sign >= 0 or not model.signed else -1.0)
     return Injection(name, signed, cal["channel"], options=dict(cal["options"]))
 
 
@@ -485,9 +245,7 @@ def calibrated_injection(name: str, level: str, sign: float = 1.0) -> Injection:
 # & Zubakov's optimal-filter SNR, discrete form), the expected excess power  max over
 # octave bands of  sum_k E[w_k] / sqrt(n_k),  w_k = 2 |X_k|^2 / (N fs S_k)  (averaged over
 # REALISATIONS seeds), for noise-like effects (radiometer equation).  Detectability = the
-# largest over families.
-
-NOISE_LIKE = ("colored_noise", "actuation_quantisation")
+# largest over families.  Which statistic: each effect's ``noise_like``.
 
 
 def residual_families(rec: Recording) -> dict[str, np.ndarray]:
@@ -594,7 +352,7 @@ def detectability(inj: Injection, seed: int = 101, settings: dict[str, Any] | No
     """
     settings = {} if settings is None else settings
     clean = _clean_reference(seed, settings) if clean is None else clean
-    noise_like = inj.name in NOISE_LIKE
+    noise_like = effect(inj.name).noise_like
     powers: dict[str, list[np.ndarray]] = {}
     for s in [seed + 7919 * j for j in range(REALISATIONS if noise_like else 1)]:
         try:
@@ -619,7 +377,7 @@ def calibrate(name: str, channel: str | None = None, options: dict | None = None
     Returns {'near': m5, 'large': m50, 'snr_near', 'snr_large', 'family'}; a target not
     reached within the effect's range gives None.
     """
-    model = EFFECTS[name]
+    model = effect(name)
     clean = _clean_reference(seed, settings or {})
 
     def rho(m: float) -> dict[str, Any]:
@@ -655,22 +413,11 @@ def _bisect(rho: Any, target: float, limit: float) -> float | None:
 
 
 #: Channel and options used for the calibrated magnitudes of each effect: chosen so the
-#: effect is excited by the paper's motion (see docs/mismatch-generator.md).
+#: effect is excited by the paper's motion (see docs/mismatch-generator.md); each
+#: effect's ``calibration``, or its default channel.
 CALIBRATION_CASES: dict[str, tuple[str | None, dict[str, Any]]] = {
-    "actuation_gain": ("x1", {}),
-    "actuation_delay": ("x1", {}),
-    "stiffness_cross_coupling": ("y1", {"source": "x1"}),
-    "cubic_stiffness": ("x1", {}),
-    "stiffness_drift": ("x1", {}),
-    "bias_drift": ("x1", {}),
-    "rotation_coupling": ("omega_z", {"profile": "slew"}),
-    "sensing_cross_talk": ("y1", {"source": "x1", "sensor": "disp"}),
-    "readout_scale": ("x1", {"sensor": "disp"}),
-    "geometry_error": ("alpha", {}),
-    "glitch": ("x1", {"beta": 5.0, "shape": "shapelet"}),
-    "colored_noise": ("x1", {"exponent": 1.0}),
-    "actuation_quantisation": ("x1", {}),
-}
+    e.name: ((e.calibration.channel, dict(e.calibration.options)) if e.calibration
+             else (e.default_channel, {})) for e in CATALOGUE}  # fmt: skip
 
 
 def calibration_table(seed: int = 101) -> list[dict[str, Any]]:
@@ -774,7 +521,8 @@ def _parser() -> argparse.ArgumentParser:
 
 def _list_effects() -> str:
     lines = []
-    for name, model in EFFECTS.items():
+    for model in CATALOGUE:
+        name = model.name
         cal = MAGNITUDES.get(name, {})
         lines.append(f"{name:26s} {model.parameter} [{model.unit}], |m| <= {model.limit:g}, "
                      f"channels {'|'.join(model.channels)} (default {model.default_channel}), "

@@ -1,0 +1,65 @@
+"""Actuation latency: the force is applied a time ``tau`` after it is commanded."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from tmopt.mismatch.effects.base import (
+    AXES,
+    TMS,
+    Builder,
+    Calibration,
+    Candidate,
+    Context,
+    Effect,
+    Injection,
+)
+from tmopt.mismatch.fit import Column, axis_column
+
+
+class ActuationDelay(Effect):
+    """Applied force ``f(t - tau)`` (electronics latency).
+
+    Made: the command held (ZOH) and delayed by tau; fractional delays are exact (the
+    simulator splits the step at ``t_n + (tau mod h)``).  Diagnosed: for the sampled
+    force, ``f(t - tau) - f(t) = sum_j c_j (f_{n-j} - f_{n-j+1})`` with group delay
+    ``tau = h sum_j c_j`` (an FIR delay with unit DC gain); 1 tap is the first-order
+    ``-tau f'`` (Taylor), 3 taps reach ~3 samples.  Per tone: residual/motion ~ i w^3 tau.
+    """
+
+    name = "actuation_delay"
+    position = 2
+    parameter, unit, limit, signed = "tau", "s", 10.0, False
+    plausible = 0.2
+    explanation = ("the force on {ch} ({where}) is applied a time tau after it is "
+                   "commanded (actuation latency): the residual is the commanded force's "
+                   "change over tau")  # fmt: skip
+    needs = ("a higher excitation frequency (a delay's residual grows like w^3, in "
+             "quadrature with the motion) or broadband force content")  # fmt: skip
+    calibration = Calibration("x1", {}, 3.1e-05, 4.8, 0.00033, 50.9, "eq")
+
+    def inject(self, inj: Injection, b: Builder) -> dict[str, Any]:
+        ch, _ = self.check(inj, b.duration)
+        delay = b.const("actuation_delay", np.zeros(4))
+        delay[AXES.index(ch)] += inj.magnitude
+        return {"tau": inj.magnitude}
+
+    def candidates(self, ctx: Context) -> list[Candidate]:
+        out = []
+        h = ctx.data.dt
+        for i, a in enumerate(AXES):
+            f = ctx.data.force[i]
+            for taps in (1, 3):
+                cols = []
+                for j in range(1, taps + 1):
+                    d = np.zeros_like(f)
+                    d[j:] = f[:-j] - f[1 : f.size - j + 1]  # f_{n-j} - f_{n-j+1}
+                    cols.append(Column(f"{self.name}[{a}]c{j}", axis_column(ctx.basis, i, d)))
+                out.append(Candidate(
+                    self.name, a, "equation", ["tau"], ["s"], cols, self.plausible,
+                    derived={"tau": ("sum", h)},
+                    text=self.explanation.format(ch=a, where=TMS[a]),
+                ))  # fmt: skip
+        return out

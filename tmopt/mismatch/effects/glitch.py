@@ -1,0 +1,156 @@
+"""Glitch: a transient force on one axis, as seen by LISA Pathfinder (Baghi et al.,
+PRD 105, 042002 (2022))."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar
+
+import numpy as np
+
+from tmopt.mismatch.effects.base import (
+    AXES,
+    TMS,
+    Builder,
+    Calibration,
+    Candidate,
+    Context,
+    Effect,
+    Injection,
+)
+from tmopt.mismatch.fit import Column, Data, axis_column
+
+
+class Glitch(Effect):
+    """Transient force on one axis: velocity kick ``dv`` [m s^-1] times a unit-area template.
+
+    Made: option ``shape`` = ``shapelet`` | ``exp``, decay time ``beta`` [s] (default 5 s),
+    starting at ``onset`` (default 0.4 T), applied as its exact average over each sampling
+    interval (:func:`glitch_interval_average`).  Diagnosed: found by a matched filter over
+    onset, width (log grid) and shape in the whitened residual, then fitted as a linear
+    amplitude; a record can hold several (``repeatable``).
+    """
+
+    name = "glitch"
+    position = 11
+    parameter, unit, limit, windowed = "dv", "m s^-1", 1e-6, True
+    options = {"beta": 5.0, "shape": "shapelet"}
+    explanation = ("a transient force (glitch) hits {ch} ({where}) at t0 = {t0:.1f} s with "
+                   "decay time {beta:.3g} s ({kind} shape)")  # fmt: skip
+    needs = "nothing: a glitch is separable by its time localisation"
+    profiled = True
+    repeatable = True
+    KINDS: ClassVar[tuple[str, ...]] = ("exp", "shapelet")
+    calibration = Calibration("x1", {"beta": 5.0, "shape": "shapelet"}, 1.5e-11, 5.0, 1.5e-10,
+                              50.4, "eq")  # fmt: skip
+
+    def inject(self, inj: Injection, b: Builder) -> dict[str, Any]:
+        ch, opt = self.check(inj, b.duration)
+        if inj.duration is not None:
+            raise ValueError(f"{self.name}: use option 'beta' for the glitch's duration")
+        beta = self.option("beta", opt["beta"], 1e-3, b.duration)
+        shape = self.choice("shape", opt["shape"], ("shapelet", "exp"))
+        t0, _ = self.window(inj, b, onset=0.4 * b.duration)
+        avg = glitch_interval_average(b.time, 1.0 / b.fs, t0, beta, shape)
+        b.series("force", 4)[AXES.index(ch)] += inj.magnitude * avg
+        return {"dv": inj.magnitude, "t0_s": t0, "decay_s": beta, "shape": shape}
+
+    def widths(self, data: Data) -> np.ndarray:
+        top = min(200.0, 0.05 * data.n * data.dt)
+        return data.dt * 2.0 ** np.arange(0, 40)[data.dt * 2.0 ** np.arange(0, 40) <= top]
+
+    def candidates(self, ctx: Context) -> list[Candidate]:
+        best = self.search(ctx)
+        if best is None:
+            return []
+        lam, axis, t0_idx, beta, kind, trials = best
+        t0_idx, beta = self.refine(ctx, axis, t0_idx, beta, kind)
+        d = ctx.data
+        tt = d.time - d.time[t0_idx]
+        shape = glitch_shape(tt, beta, kind)
+        col = Column(f"glitch[{AXES[axis]}]", axis_column(ctx.basis, axis, shape))
+        t0 = float(d.time[t0_idx])
+        return [Candidate(
+            self.name, AXES[axis], "equation", ["dv"], ["m s^-1"], [col], None, trials,
+            fixed={"t0_s": t0, "decay_s": float(beta), "shape": kind}, n_searched=2,
+            text=self.explanation.format(ch=AXES[axis], where=TMS[AXES[axis]], t0=t0,
+                                         beta=beta, kind=kind),
+        )]  # fmt: skip
+
+    def refine(self, ctx: Context, axis: int, k0: int, beta: float, kind: str):
+        """Onset (+-1 s) and width (within the grid's factor 2) maximising the matched-filter
+        statistic: the coarse width grid otherwise leaves a residual that looks like a
+        second glitch."""
+        d = ctx.data
+        e = ctx.eq_noise.whiten(ctx.eq_residual)
+        span = max(1, int(round(1.0 * d.fs)))
+        best = (-1.0, k0, beta)
+        for b in beta * 2.0 ** np.linspace(-0.5, 0.5, 11):
+            g = glitch_shape(d.time - d.time[0], b, kind)
+            t = ctx.eq_noise.whiten(axis_column(ctx.basis, axis, g))
+            energy = float(np.sum(t**2))
+            for k in range(max(0, k0 - span), min(d.n - 1, k0 + span) + 1):
+                tk = np.roll(t, k, axis=1)
+                tk[:, :k] = 0.0
+                lam = float(np.sum(e * tk)) ** 2 / energy
+                if lam > best[0]:
+                    best = (lam, k, float(b))
+        return best[1], best[2]
+
+    def search(self, ctx: Context):
+        """Max over axis, width, shape, onset of the matched-filter statistic
+        ``(e.t)^2/|t|^2`` on the whitened residual ``e``, with the template ``t`` (the
+        glitch on axis a, seen in both f_B-free combinations) whitened by the same noise
+        model, so the statistic is chi^2_1 at every trial under the noise model."""
+        d = ctx.data
+        noise = ctx.eq_noise
+        e = noise.whiten(ctx.eq_residual)
+        m = e.shape[1]
+        nfft = 1 << int(math.ceil(math.log2(2 * m)))
+        ef = np.fft.rfft(e, nfft, axis=1)
+        best, trials = None, 0
+        for beta in self.widths(d):
+            for kind in self.KINDS:
+                g = glitch_shape(np.arange(m) * d.dt, beta, kind)
+                for a in range(4):
+                    t = noise.whiten(axis_column(ctx.basis, a, g))
+                    corr = np.fft.irfft(ef * np.conj(np.fft.rfft(t, nfft, axis=1)), nfft,
+                                        axis=1)[:, :m].sum(axis=0)  # fmt: skip
+                    energy = np.cumsum(np.sum(t**2, axis=0))[::-1]  # cut at the record's end
+                    # onsets whose template is mostly cut off by the record's end: skipped
+                    lam = np.where(energy >= 0.5 * energy[0], corr**2 / energy[0], 0.0)
+                    k = int(np.argmax(lam))
+                    trials += m
+                    if best is None or lam[k] > best[0]:
+                        best = (float(lam[k]), a, k, float(beta), kind)
+        return None if best is None else (*best, float(trials))
+
+
+def glitch_shape(t: np.ndarray, beta: float, kind: str) -> np.ndarray:
+    """Unit-area force-glitch templates of LISA Pathfinder (Baghi et al., PRD 105, 042002,
+    2022): one-sided exponential ``e^{-t/b}/b`` and the n=1 shapelet ``t e^{-t/b}/b^2``
+    (t >= 0; zero before the onset).  The amplitude is the velocity kick [m/s]."""
+    s = np.where(t >= 0, t, 0.0) / beta
+    if kind == "exp":
+        return np.where(t >= 0, np.exp(-s), 0.0) / beta
+    return s * np.exp(-s) / beta
+
+
+def _glitch_primitive(s: np.ndarray, beta: float, shape: str) -> np.ndarray:
+    """Integral from 0 to s of the unit-area template (0 for s <= 0)."""
+    u = np.maximum(s, 0.0) / beta
+    if shape == "exp":
+        return -np.expm1(-u)
+    return 1.0 - (1.0 + u) * np.exp(-u)
+
+
+def glitch_interval_average(t: np.ndarray, h: float, t0: float, beta: float,
+                            shape: str) -> np.ndarray:  # fmt: skip
+    """Average over ``[t_n, t_n + h)`` of the unit-area LPF glitch template starting at t0.
+
+    Templates (Baghi et al., PRD 105, 042002 (2022)): ``exp`` = ``e^{-s/b}/b``,
+    ``shapelet`` = ``s e^{-s/b}/b^2`` (s = t - t0 >= 0).  Averages of the exact
+    antiderivative, so the velocity kick (impulse per unit mass) is exact.
+    """
+    return (_glitch_primitive(t + h - t0, beta, shape) - _glitch_primitive(t - t0, beta,
+                                                                           shape)) / h  # fmt: skip

@@ -1,0 +1,262 @@
+"""Command-line entry point: ``python -m tmopt`` / ``tmopt`` (Hydra).
+
+Before Hydra launches anything, :func:`preflight` composes the configuration for every
+value that the command line names (each value of a sweep once) and builds its problem and
+algorithm. Any unknown config name, wrong type or invalid value thus ends the command
+with one line naming it and the choices, exit status 2, and no traceback; nothing of a
+sweep starts until the whole sweep is known to be valid.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import sys
+from pathlib import Path
+
+import hydra
+from hydra import compose, initialize_config_dir
+from hydra.core.global_hydra import GlobalHydra
+from hydra.core.hydra_config import HydraConfig
+from hydra.core.override_parser.overrides_parser import OverridesParser
+from hydra.types import RunMode
+from omegaconf import DictConfig, OmegaConf
+
+from tmopt.evaluation.archive import ArchiveError
+from tmopt.files import atomic_write_text
+from tmopt.run.build import build
+from tmopt.run.config import GROUPS, ConfigError, config_hash, register_configs
+from tmopt.run.run_lock import RunFolderBusy, hold_run_lock
+
+log = logging.getLogger("tmopt")
+
+CONF_DIR = Path(__file__).resolve().parents[2] / "conf"
+#: Flags after which Hydra prints information instead of running: no pre-flight needed.
+INFO_FLAGS = {"--help", "-h", "--hydra-help", "--info", "-i", "--cfg", "-c",
+              "--shell-completion", "-sc", "--version", "--resolve", "-p", "--package"}
+MULTIRUN_FLAGS = {"-m", "--multirun"}
+
+register_configs(CONF_DIR)
+
+
+# ---- pre-flight -------------------------------------------------------------------------
+def available(group: str) -> list[str]:
+    """Option names of a config group (``conf/<group>/*.yaml``)."""
+    folder = CONF_DIR / group
+    return sorted(p.stem for p in folder.glob("*.yaml")) if folder.is_dir() else []
+
+
+def preflight(args: list[str]) -> int:
+    """Validate every configuration a command line denotes; return how many were checked."""
+    overrides = [a for a in args if not a.startswith("-")]
+    try:
+        parsed = OverridesParser.create().parse_overrides(overrides)
+    except Exception as exc:  # noqa: BLE001 - Hydra's grammar errors are multi-line
+        raise ConfigError(f"cannot parse the command line: {_first_line(exc)}") from None
+    values: dict[str, list[str]] = {}
+    for ov in parsed:
+        key = ov.get_key_element()
+        vals = list(ov.sweep_string_iterator()) if ov.is_sweep_override() \
+            else [ov.get_value_element_as_str()]
+        _check_group_values(key, vals)
+        values[ov.input_line] = [_as_override(ov, v) for v in vals]
+    combos = _combinations(list(values.values()))
+    multirun = bool(MULTIRUN_FLAGS.intersection(args))
+    with _hydra_context():
+        for combo in combos:
+            _check_one(combo, multirun)
+    return len(combos)
+
+
+def _as_override(ov, value: str) -> str:
+    return f"{ov.get_key_element()}={value}"  # the key element keeps its +/++/~ prefix
+
+
+def option_config(group: str, option: str) -> DictConfig:
+    """The node of ``conf/<group>/<option>.yaml`` as Hydra composes it (constructor
+    defaults, then the file), e.g. to build one algorithm outside a run."""
+    with _hydra_context():
+        cfg = compose(config_name="config", overrides=[f"{group}={option}"])
+    return cfg[group]
+
+
+def _check_group_values(key: str, vals: list[str]) -> None:
+    group = key.lstrip("+~")
+    if group not in GROUPS:
+        return
+    options = available(group)
+    for v in vals:
+        if v not in options and v != "null":
+            raise ConfigError(f"unknown {group} {v!r}; choose one of: {', '.join(options)}")
+
+
+def _combinations(value_lists: list[list[str]]) -> list[list[str]]:
+    """The first value of every override, then each other value of a sweep once."""
+    base = [vals[0] for vals in value_lists]
+    combos = [base]
+    for i, vals in enumerate(value_lists):
+        for v in vals[1:]:
+            combos.append(base[:i] + [v] + base[i + 1:])
+    return combos
+
+
+def _check_one(overrides: list[str], multirun: bool) -> None:
+    try:
+        cfg = compose(config_name="config", overrides=overrides, return_hydra_config=True)
+        outdir = cfg.hydra.sweep.dir if multirun else cfg.hydra.run.dir
+    except Exception as exc:  # noqa: BLE001 - turn Hydra's report into one line
+        raise ConfigError(_composition_message(exc, overrides)) from None
+    _check_output_dir(Path(outdir))
+    build(cfg, dict(cfg.hydra.runtime.choices))
+
+
+def _check_output_dir(path: Path) -> None:
+    """The output folder must exist as a writable folder or be creatable."""
+    ancestor = path
+    while not ancestor.exists() and ancestor != ancestor.parent:
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        raise ConfigError(f"output folder {path} cannot be created: {ancestor} is a file")
+    if not os.access(ancestor, os.W_OK | os.X_OK):
+        raise ConfigError(f"output folder {path} is not writable ({ancestor} is read-only)")
+
+
+def _composition_message(exc: Exception, overrides: list[str]) -> str:
+    text = _first_line(exc)
+    cause = exc.__cause__ or exc.__context__
+    if cause is not None and _first_line(cause) not in text:
+        text = f"{text}: {_first_line(cause)}"
+    return f"invalid configuration ({' '.join(overrides) or 'defaults'}): {text}"
+
+
+def _first_line(exc: BaseException) -> str:
+    lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
+    return lines[0] if lines else type(exc).__name__
+
+
+class _hydra_context:
+    """Hydra's compose API, initialised on tmopt's conf/ folder (and cleared afterwards)."""
+
+    def __enter__(self):
+        GlobalHydra.instance().clear()
+        self._ctx = initialize_config_dir(config_dir=str(CONF_DIR), version_base=None)
+        self._ctx.__enter__()
+        return self
+
+    def __exit__(self, *exc):
+        self._ctx.__exit__(*exc)
+        GlobalHydra.instance().clear()
+        return False
+
+
+# ---- the Hydra task -------------------------------------------------------------------
+def run_from_config(cfg: DictConfig) -> dict | None:
+    """Build, run and report one configuration inside a Hydra job."""
+    hc = HydraConfig.get()
+    choices = dict(hc.runtime.choices)
+    outdir = Path(hc.runtime.output_dir)
+    multirun = hc.mode == RunMode.MULTIRUN
+    try:
+        problem, algorithm = build(cfg, choices)
+        atomic_write_text(outdir / "config.yaml", OmegaConf.to_yaml(cfg, resolve=True))
+        from tmopt.run.runner import run_optimisation
+
+        with hold_run_lock(outdir):  # one process per run folder (tmopt/run/run_lock.py)
+            result = run_optimisation(
+                problem, algorithm, budget=cfg.budget, seed=cfg.seed, outdir=outdir,
+                config_hash=config_hash(cfg), resume=cfg.resume, progress=cfg.progress,
+                plots=cfg.plots, extra_metrics=getattr(problem, "extra_metrics", None),
+                eval_time_limit=cfg.eval_time_limit)
+    except RunFolderBusy as exc:  # not a failure of this run: leave its folder alone
+        log.error("tmopt: not run: %s", exc)
+        if not multirun:
+            sys.exit(1)
+        return None
+    except (ConfigError, ArchiveError, OSError) as exc:
+        _record_failure(outdir, exc)
+        log.error("tmopt: error: %s", exc)
+        if not multirun:
+            sys.exit(2 if isinstance(exc, ConfigError) else 1)
+        return None
+    print(summary_table(result.metrics, outdir))
+    return result.metrics
+
+
+def _record_failure(outdir: Path, exc: Exception) -> None:
+    try:
+        outdir.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(outdir / "failure.json",
+                          json.dumps({"error": type(exc).__name__, "message": str(exc)}))
+    except OSError:
+        pass
+
+
+def summary_table(metrics: dict, outdir: Path | None = None) -> str:
+    """Markdown table of a finished run's result."""
+    prob = metrics["problem"]
+    chosen = metrics.get("chosen") or {}
+    rows = [f"## {prob['name']} / {metrics['algorithm']} / seed {metrics['seed']}", "",
+            "| quantity | value |", "|---|---|",
+            f"| real evaluations | {metrics['n_evals']} / {metrics['budget']} |",
+            f"| feasible share | {_fmt(metrics['feasible_ratio'])} |",
+            f"| final non-dominated set | {metrics['pareto_size']} designs |"]
+    for name, v in zip(prob["objectives"], metrics.get("best_objectives") or []):
+        rows.append(f"| best feasible {name} | {_fmt(v)} |")
+    label = "chosen (Eq. 21)" if chosen.get("feasible") else "least-violating (none feasible)"
+    for name, v in (chosen.get("F") or {}).items():
+        rows.append(f"| {label} {name} | {_fmt(v)} |")
+    for key, v in (metrics.get("identification") or {}).items():
+        if isinstance(v, float) and key not in prob["objectives"]:  # those are shown above
+            rows.append(f"| chosen: {key} | {_fmt(v)} |")
+    for key in ("igd", "igd_plus", "hv"):
+        if metrics.get(key) is not None:
+            rows.append(f"| {key} | {_fmt(metrics[key])} |")
+    rows.append(f"| wall time | {metrics['wall_time_s']:.1f} s |")
+    if outdir is not None:
+        rows += ["", f"outputs: {outdir}"]
+    return "\n".join(rows)
+
+
+def _fmt(v) -> str:
+    return "n/a" if v is None else f"{v:.4g}"
+
+
+@hydra.main(version_base=None, config_path=str(CONF_DIR), config_name="config")
+def _hydra_main(cfg: DictConfig) -> None:
+    run_from_config(cfg)
+
+
+def force_swept_group_keys(args: list[str]) -> list[str]:
+    """In a sweep over a group, override that group's keys with ``++``.
+
+    Hydra composes a sweep's base configuration with the group's *default* option, where
+    a key of the swept options (``algorithm.n_init`` while sweeping ``algorithm=a,b``)
+    may not exist, and refuses it. ``++`` (add or override) lets each job's own option
+    take it; pre-flight still rejects a key that an option does not accept.
+    """
+    if not MULTIRUN_FLAGS.intersection(args):
+        return args
+    try:
+        parsed = OverridesParser.create().parse_overrides(
+            [a for a in args if not a.startswith("-")])
+    except Exception:  # noqa: BLE001 - pre-flight reports grammar errors
+        return args
+    swept = {ov.get_key_element() for ov in parsed
+             if ov.is_sweep_override() and ov.get_key_element() in GROUPS}
+    return [f"++{a}" if not a.startswith(("-", "+", "~")) and "=" in a
+            and a.split("=", 1)[0].split(".", 1)[0] in swept and "." in a.split("=", 1)[0]
+            else a for a in args]
+
+
+def main() -> None:
+    """Console entry: pre-flight every configuration, then hand over to Hydra."""
+    sys.argv[1:] = force_swept_group_keys(sys.argv[1:])
+    args = sys.argv[1:]
+    if not INFO_FLAGS.intersection(args) and not any(a.startswith("--config") for a in args):
+        try:
+            preflight(args)
+        except ConfigError as exc:
+            print(f"tmopt: error: {exc}", file=sys.stderr)
+            sys.exit(2)
+    _hydra_main()
