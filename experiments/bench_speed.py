@@ -29,10 +29,11 @@ wall time of an idle machine; wall seconds and the load average are printed besi
   against re-optimising the hyperparameters at every fit (``refit_every=1``, no guard,
   the setting before this work); means over warm iterations (the default's over one
   refit cycle).
-* ``sim``: ms per (design, noise seed) for B designs x K seeds. PLACEHOLDER (issue 19,
-  part 3, another engineer's): both the "new" and the reference path loop today's kernel
-  over the seeds, so ``sim_ratio`` is 1 by construction until
-  :func:`simulate_designs_seeds` is replaced by the batched kernel.
+* ``sim``: CPU ms per (design, noise seed) of the closed-loop simulator, B = 100 designs
+  of the stiffness problem x K = 32 noise seeds (8 in ``--quick``), in runs of the
+  problem's chunk per call: the current kernel against today's
+  (``REFERENCE_KERNEL_COMMIT``, read from git and compiled in this process), with one
+  numba thread and with all; the outputs are compared bit for bit.
 
 The last line is ``speed: qlognehvi_ratio=R1 gp_iter_ratio=R2 sim_ms_per_design_seed=T
 sim_ratio=R3`` (ratios = reference time / new time, in this process). In ``--quick`` R1
@@ -331,42 +332,116 @@ def section_gp(quick: bool) -> float:
 
 
 # ---- simulator for designs x noise seeds -------------------------------------------------
-def simulate_designs_seeds(ref1, ref2, cfg, seeds) -> None:
-    """PLACEHOLDER for issue 19 part 3 (the batched designs x seeds kernel, another
-    engineer's): today's kernel called once per noise seed."""
-    from tmopt.physics.simulator import simulate
-
-    for seed in seeds:
-        simulate(ref1, ref2, cfg, seed=seed)
+#: The closed-loop kernel before issue 19's changes (the reference of ``sim``), read from
+#: git: the commit whose tmopt/physics/_closed_loop.py was today's kernel.
+REFERENCE_KERNEL_COMMIT = "c0b6733"
 
 
-def simulate_reference(ref1, ref2, cfg, seeds) -> None:
-    """Today's kernel, one call per noise seed (the reference of part 3)."""
-    from tmopt.physics.simulator import simulate
+def reference_kernel_module():
+    """Today's kernel (``REFERENCE_KERNEL_COMMIT``) as a module of its own, compiled in this
+    process beside the current one; None (with the reason printed) without git history."""
+    import importlib.util
+    import subprocess
+    import tempfile
 
-    for seed in seeds:
-        simulate(ref1, ref2, cfg, seed=seed)
+    try:
+        source = subprocess.run(
+            ["git", "-C", str(REPO), "show",
+             f"{REFERENCE_KERNEL_COMMIT}:tmopt/physics/_closed_loop.py"],
+            capture_output=True, text=True, check=True).stdout
+    except (OSError, subprocess.CalledProcessError) as err:
+        print(f"no reference kernel (git show {REFERENCE_KERNEL_COMMIT} failed: {err}); "
+              f"sim_ratio is nan")
+        return None
+    path = Path(tempfile.mkdtemp(prefix="tmopt_kernel_")) / "_closed_loop_reference.py"
+    path.write_text(source)
+    spec = importlib.util.spec_from_file_location("_closed_loop_reference", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def run_kernel(kernel, ref1, ref2, cfg, seeds) -> np.ndarray:
+    """Runs (ref1[i], ref2[i], seeds[i]) through ``kernel`` with the simulator's own inputs;
+    theta_hat (B, N, 5). A kernel that takes one noise realisation per launch (before
+    issue 18's ``noise_of``) is launched once per seed."""
+    import inspect
+
+    from tmopt.physics import simulator as S
+
+    if "noise_of" in inspect.signature(kernel.py_func).parameters:
+        io = S.prepare(ref1, ref2, cfg, seeds)
+        kernel(*[io[k] for k in S._KERNEL_ARGS])
+        return io["out_th"]
+    out = np.empty((len(seeds), ref1.shape[1], 5))
+    for seed in np.unique(seeds):
+        rows = np.flatnonzero(seeds == seed)
+        io = S.prepare(ref1[rows], ref2[rows], cfg, int(seed))
+        io["noise"] = io["noise"].reshape(-1, *io["noise"].shape[-2:])[0]  # (14, N)
+        kernel(*[io[k] for k in S._KERNEL_ARGS if k != "noise_of"])
+        out[rows] = io["out_th"]
+    return out
 
 
 def section_sim(quick: bool) -> tuple[float, float]:
-    from bench_simulator import population
+    """ms per (design, seed): B = 100 designs of the stiffness problem x K noise seeds, in
+    runs of the problem's chunk per call, the current kernel against today's; the same
+    inputs (prepared by the simulator) for both, outputs compared bit for bit."""
+    import numba
 
-    from tmopt.physics.simulator import SimulationConfig, simulate
+    from tmopt.physics import _closed_loop as cl
+    from tmopt.physics.simulator import sample_times
+    from tmopt.problems.stiffness import StiffnessProblem
 
-    cfg = SimulationConfig(record="estimates")
-    b, k = 100, (4 if quick else 32)
-    r1, r2 = population(b, seed=0)
-    simulate(*population(1, seed=0), cfg)  # compile / cache load, untimed
-    with Clock() as ref:
-        simulate_reference(r1, r2, cfg, range(k))
-    with Clock() as new:
-        simulate_designs_seeds(r1, r2, cfg, range(k))
-    ms = 1e3 * new.cpu / (b * k)
-    print(f"\n## Simulator, B = {b} designs x K = {k} seeds (PLACEHOLDER: part 3 not done; "
-          f"both paths are today's kernel); {load()}\n")
-    print(f"reference {1e3 * ref.cpu / (b * k):.2f} ms, new {ms:.2f} ms per (design, seed) "
-          f"CPU (wall {1e3 * new.wall / (b * k):.2f} ms)")
-    return ms, ref.cpu / new.cpu
+    reference = reference_kernel_module()
+    problem = StiffnessProblem()
+    cfg = problem.config
+    b, k = 100, (8 if quick else 32)
+    chunk = getattr(problem, "chunk", 100)
+    rng = np.random.default_rng(0)
+    X = problem.xl + rng.random((b, problem.n_var)) * (problem.xu - problem.xl)
+    t = sample_times(cfg.duration, cfg.sample_rate)
+    refs = [r.evaluate(t) for r in problem.references(X)]  # (B, N) each, before the ramp
+    rows = np.repeat(np.arange(b), k)  # design of every run
+    seeds = np.tile(np.arange(k, dtype=np.int64), b)
+    kernels = {"new": cl.batch_kernel}
+    if reference is not None:
+        kernels["reference"] = reference.batch_kernel
+    for kernel in kernels.values():  # compile / cache load, untimed
+        run_kernel(kernel, refs[0][:1], refs[1][:1], cfg, seeds[:1])
+    print(f"\n## Simulator: B = {b} designs x K = {k} seeds of the stiffness problem "
+          f"({cfg.controller}, {t.size} steps), {chunk} runs per call; {load()}\n")
+    print("| threads | kernel | CPU ms per (design, seed) | wall ms | ratio reference / new |")
+    print("|---|---|---|---|---|")
+    threads_all = numba.get_num_threads()
+    result = (float("nan"), float("nan"))
+    for threads in sorted({1, threads_all}):
+        numba.set_num_threads(threads)
+        clocks = {name: [0.0, 0.0] for name in kernels}
+        same = True
+        for start in range(0, b * k, chunk):
+            sl = slice(start, start + chunk)
+            outs = {}
+            for name, kernel in kernels.items():
+                with Clock() as c:
+                    outs[name] = run_kernel(kernel, refs[0][rows[sl]], refs[1][rows[sl]], cfg,
+                                            seeds[sl])
+                clocks[name][0] += c.cpu
+                clocks[name][1] += c.wall
+            if "reference" in outs:
+                same &= np.array_equal(outs["new"], outs["reference"], equal_nan=True)
+        ms = {name: [1e3 * v / (b * k) for v in cw] for name, cw in clocks.items()}
+        ratio = ms["reference"][0] / ms["new"][0] if "reference" in ms else float("nan")
+        for name in kernels:
+            print(f"| {threads} | {name} | {ms[name][0]:.2f} | {ms[name][1]:.2f} | "
+                  f"{ratio:.2f} |" if name == "new" else
+                  f"| {threads} | {name} | {ms[name][0]:.2f} | {ms[name][1]:.2f} | |")
+        if "reference" in kernels:
+            print(f"| {threads} | theta_hat of every run bit-identical | {same} | | |")
+        if threads == threads_all:
+            result = (ms["new"][0], ratio)
+    numba.set_num_threads(threads_all)
+    return result
 
 
 def main() -> None:
