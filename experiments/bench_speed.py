@@ -387,6 +387,8 @@ def section_sim(quick: bool) -> tuple[float, float]:
     """ms per (design, seed): B = 100 designs of the stiffness problem x K noise seeds, in
     runs of the problem's chunk per call, the current kernel against today's; the same
     inputs (prepared by the simulator) for both, outputs compared bit for bit."""
+    from dataclasses import replace
+
     import numba
 
     from tmopt.physics import _closed_loop as cl
@@ -440,6 +442,15 @@ def section_sim(quick: bool) -> tuple[float, float]:
             print(f"| {threads} | theta_hat of every run bit-identical | {same} | | |")
         if threads == threads_all:
             result = (ms["new"][0], ratio)
+        if threads == 1:  # where the time goes: the same runs with the plain PID
+            pid = replace(cfg, controller="pid")
+            with Clock() as c:
+                for start in range(0, b * k, chunk):
+                    sl = slice(start, start + chunk)
+                    run_kernel(cl.batch_kernel, refs[0][rows[sl]], refs[1][rows[sl]], pid,
+                               seeds[sl])
+            print(f"| 1 | new, controller=pid (no FRBF network) | {1e3 * c.cpu / (b * k):.2f} "
+                  f"| {1e3 * c.wall / (b * k):.2f} | |")
     numba.set_num_threads(threads_all)
     return result
 

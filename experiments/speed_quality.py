@@ -68,8 +68,10 @@ HELDOUT_SEEDS = tuple(range(1000, 1010))
 LOWER_IS_BETTER = {"igd": True, "hv": False, "M_heldout": True}
 
 
-def run_sweep(study: str, seeds: int, out: Path) -> None:
+def run_sweep(study: str, seeds: int, out: Path, budget: int | None = None) -> None:
     common, variants, _, _ = STUDIES[study]
+    if budget is not None:  # the first `budget` evaluations of a longer run, only cheaper
+        variants = {v: [*o, f"budget={budget}"] for v, o in variants.items()}
     env = {**os.environ, "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
            "MKL_NUM_THREADS": "1"}
     for variant, overrides in variants.items():
@@ -172,6 +174,9 @@ def main() -> None:
     ap.add_argument("--list", action="store_true")
     ap.add_argument("--at", type=int, default=None,
                     help="compare after this many evaluations (default: the study's)")
+    ap.add_argument("--budget", type=int, default=None,
+                    help="run every variant to this budget only and compare there (a run's "
+                         "first evaluations do not depend on its budget); use its own --out")
     args = ap.parse_args()
     if args.list or args.study is None:
         for name, (common, variants, keys, at) in STUDIES.items():
@@ -180,9 +185,11 @@ def main() -> None:
         return
     if args.seeds < 2:
         sys.exit("speed_quality: --seeds must be >= 2 (a rank-sum test needs two runs)")
+    if args.budget is not None and not 2 <= args.budget <= 10_000:
+        sys.exit(f"speed_quality: --budget must be in [2, 10000], got {args.budget}")
     if not args.report_only:
-        run_sweep(args.study, args.seeds, args.out)
-    at = args.at or STUDIES[args.study][3]
+        run_sweep(args.study, args.seeds, args.out, args.budget)
+    at = args.at or args.budget or STUDIES[args.study][3]
     report(args.study, score(args.study, args.out, at), at)
 
 
