@@ -353,8 +353,12 @@ def reference_kernel_module():
         print(f"no reference kernel (git show {REFERENCE_KERNEL_COMMIT} failed: {err}); "
               f"sim_ratio is nan")
         return None
-    path = Path(tempfile.mkdtemp(prefix="tmopt_kernel_")) / "_closed_loop_reference.py"
-    path.write_text(source)
+    # a fixed file per commit, written once, so numba's cache of it holds across runs
+    path = Path(tempfile.gettempdir()) / f"tmopt_kernel_{REFERENCE_KERNEL_COMMIT}" \
+        / "_closed_loop_reference.py"
+    if not path.exists() or path.read_text() != source:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(source)
     spec = importlib.util.spec_from_file_location("_closed_loop_reference", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
