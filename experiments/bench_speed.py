@@ -361,6 +361,7 @@ def reference_kernel_module():
         path.write_text(source)
     spec = importlib.util.spec_from_file_location("_closed_loop_reference", path)
     module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # numba's cache finds the module by its name
     spec.loader.exec_module(module)
     return module
 
