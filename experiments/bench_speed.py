@@ -12,8 +12,8 @@ Sections (every time is process CPU seconds of one thread, the load-robust proxy
 wall time of an idle machine; wall seconds and the load average are printed beside):
 
 * ``qlognehvi``: per-iteration cost (``ask``: GP fit + qLogNEHVI maximisation) of the
-  default settings (conf/algorithm/qlognehvi.yaml) against the reference
-  (conf/algorithm/qlognehvi_reference.yaml, the settings before this work, which
+  default settings (tmopt/conf/algorithm/qlognehvi.yaml) against the reference
+  (tmopt/conf/algorithm/qlognehvi_reference.yaml, the settings before this work, which
   reproduce its archives bit for bit), both built from their YAML like the CLI does, on
   the same archive of the stiffness problem (scheme B, k = 3: D = 18, 2 objectives, 4
   constraints; designs of an MGSAEA-IPC/RBF run, seed 0). At every size n the GPs are
@@ -25,7 +25,7 @@ wall time of an idle machine; wall seconds and the load average are printed besi
   the per-iteration costs into a per-run estimate (piecewise-linear over the run's sizes).
   ``--profile`` prints where the time goes (docs/speed.md's profile tables).
 * ``gp``: one MGSAEA-IPC iteration with the GP at 300 points, D = 18
-  (experiments/bench_mgsaea_iteration.py's setting), conf/surrogate/gp.yaml's defaults
+  (experiments/bench_mgsaea_iteration.py's setting), tmopt/conf/surrogate/gp.yaml's defaults
   against re-optimising the hyperparameters at every fit (``refit_every=1``, no guard,
   the setting before this work); means over warm iterations (the default's over one
   refit cycle).
@@ -89,7 +89,7 @@ class Clock:
 
 # ---- qLogNEHVI --------------------------------------------------------------------------
 def algorithm_from_yaml(name: str, **overrides):
-    """conf/algorithm/<name>.yaml built as the CLI builds it (plus overrides)."""
+    """tmopt/conf/algorithm/<name>.yaml built as the CLI builds it (plus overrides)."""
     from tmopt.run.build import build_algorithm
     from tmopt.run.cli import option_config
 
@@ -323,7 +323,7 @@ def section_gp(quick: bool) -> float:
         rows = bench("gp", 300, iters + 1, 1, 0, options)
         cpu = [r["cpu_ask"] for r in rows[1:]]
         warm[label] = float(np.mean(cpu))
-        print(f"{label:9s} ({options or 'conf/surrogate/gp.yaml defaults'}): cold "
+        print(f"{label:9s} ({options or 'tmopt/conf/surrogate/gp.yaml defaults'}): cold "
               f"{rows[0]['cpu_ask']:.2f} s, warm {', '.join(f'{c:.2f}' for c in cpu)} s CPU; "
               f"mean {warm[label]:.2f} s", flush=True)
     ratio = warm["reference"] / warm["new"]
@@ -334,7 +334,7 @@ def section_gp(quick: bool) -> float:
 # ---- simulator for designs x noise seeds -------------------------------------------------
 #: The closed-loop kernel before issue 19's changes (the reference of ``sim``), read from
 #: git: the commit whose tmopt/physics/_closed_loop.py was today's kernel.
-REFERENCE_KERNEL_COMMIT = "c0b6733"
+REFERENCE_KERNEL_COMMIT = "fe4e367"
 
 
 def reference_kernel_module():
