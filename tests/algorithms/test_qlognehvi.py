@@ -351,9 +351,17 @@ def test_the_reference_yaml_pins_the_earlier_settings_and_keeps_their_config_has
     added = ("cached_posterior", "init_batch_limit", "refit_every", "refit_guard",
              "prune_samples", "max_baseline")
     earlier = {k: v for k, v in node.items() if k not in added}
+    # the default surrogate group (unused by qLogNEHVI) as earlier runs had it
+    gp = OmegaConf.to_container(option_config("surrogate", "gp"))
+    gp_before = {**{k: v for k, v in gp.items() if k != "refit_guard"}, "refit_every": 1}
     run = {"seed": 0, "budget": 300, "problem": {"_target_": "x.Problem"}}
+    assert config_hash(OmegaConf.create({**run, "algorithm": node, "surrogate": gp})) \
+        == config_hash(OmegaConf.create({**run, "algorithm": earlier, "surrogate": gp_before}))
     assert config_hash(OmegaConf.create({**run, "algorithm": node})) \
         == config_hash(OmegaConf.create({**run, "algorithm": earlier}))
+    ipc = {"_target_": "tmopt.algorithms.mgsaea.MGSAEAIPC"}  # uses the GP: numbers change
+    assert config_hash(OmegaConf.create({**run, "algorithm": ipc, "surrogate": gp})) \
+        != config_hash(OmegaConf.create({**run, "algorithm": ipc, "surrogate": gp_before}))
     default = OmegaConf.to_container(option_config("algorithm", "qlognehvi"))
     assert config_hash(OmegaConf.create({**run, "algorithm": default})) \
         != config_hash(OmegaConf.create({**run, "algorithm": earlier}))
