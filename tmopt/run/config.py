@@ -58,6 +58,25 @@ HASH_NEUTRAL_ARGUMENTS: dict[tuple[str, str, str], Callable[[dict], bool] | None
     ("problem", "tmopt.problems.suites.PymooBenchmark", "front_points"): None,
     ("problem", "tmopt.problems.suites.PymooBenchmark", "n_obj"): _objectives_fixed,
 }
+#: Arguments added later whose earlier behaviour is a value other than their constructor
+#: default (the default being the new behaviour): at that value they stay out of
+#: config_hash too. qLogNEHVI's speed settings (docs/speed.md): ``qlognehvi_reference``
+#: sets these values, so runs made before keep their hash; the GP's refit guard likewise.
+HASH_NEUTRAL_VALUES: dict[tuple[str, str, str], object] = {
+    ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "cached_posterior"): False,
+    ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "init_batch_limit"): None,
+    ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "refit_every"): 1,
+    ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "refit_guard"): None,
+    ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "prune_samples"): None,
+    ("surrogate", "tmopt.surrogates.gp.GPSurrogate", "refit_guard"): None,
+}
+#: For an algorithm that takes no surrogate, the surrogate group changes no number, yet it
+#: is part of every configuration: it is hashed with these arguments at the values that
+#: earlier runs had, so a new default of the surrogate (the GP's refit schedule, docs/
+#: speed.md) leaves the hash of those runs (qLogNEHVI, the evolutionary baselines) alone.
+INERT_SURROGATE_VALUES: dict[str, dict[str, object]] = {
+    "tmopt.surrogates.gp.GPSurrogate": {"refit_every": 1, "refit_guard": None},
+}
 
 
 class ConfigError(ValueError):
@@ -318,17 +337,38 @@ def _show(value) -> str:
     return repr(value)
 
 
+def _hash_inert_surrogate(data: dict) -> None:
+    """Set the surrogate node to :data:`INERT_SURROGATE_VALUES` when the algorithm takes no
+    surrogate (the one ``BUILT_ARGUMENTS`` entry); in place."""
+    alg, sur = data.get("algorithm"), data.get("surrogate")
+    if not (isinstance(alg, dict) and isinstance(sur, dict)) \
+            or sur.get("_target_") not in INERT_SURROGATE_VALUES:
+        return
+    try:
+        takes = "surrogate" in constructor_parameters(get_class(alg.get("_target_", "")))
+    except (ImportError, ValueError, AttributeError):  # unknown class: hash the node as is
+        return
+    if not takes:
+        sur.update(INERT_SURROGATE_VALUES[sur["_target_"]])
+
+
 def config_hash(cfg: DictConfig) -> str:
     """Hash of everything that determines a run's numbers (run-only keys excluded)."""
     data = OmegaConf.to_container(cfg, resolve=True)
     for key in RUN_ONLY_KEYS:
         data.pop(key, None)
     data.pop("hydra", None)
+    _hash_inert_surrogate(data)
     for (group, target, key), applies in HASH_NEUTRAL_ARGUMENTS.items():
         node = data.get(group)
         if isinstance(node, dict) and node.get("_target_") == target and key in node \
                 and (applies is None or applies(node)) \
                 and node[key] == _plain(constructor_parameters(get_class(target))[key].default):
+            node.pop(key)
+    for (group, target, key), value in HASH_NEUTRAL_VALUES.items():
+        node = data.get(group)
+        if isinstance(node, dict) and node.get("_target_") == target and key in node \
+                and node[key] == value:
             node.pop(key)
     blob = json.dumps(data, sort_keys=True, default=str).encode()
     return hashlib.sha256(blob).hexdigest()[:16]
