@@ -135,9 +135,13 @@ def test_killed_sweep_skips_finished_runs_and_resumes_the_unfinished(tmp_path):
     archived = _kill_when(proc, run1 / "archive.h5", rows=60)
     assert (run0 / "metrics.json").exists()  # the first run had finished
     finished = (run0 / "metrics.json").read_text()
+    log0 = (run0 / "tmopt.log").read_text()
 
-    _finish(sweep)
-    assert "already complete" in (run0 / "tmopt.log").read_text()
+    out = _finish(sweep).stdout
+    # the sweep launches only the unfinished run (tmopt/run/sweep_resume.py)
+    assert (f"tmopt sweep: 2 runs: 1 skipped (complete), 1 resumed ({archived} archived "
+            "evaluations), 0 started; launching 1") in out
+    assert (run0 / "tmopt.log").read_text() == log0  # not launched at all
     assert (run0 / "metrics.json").read_text() == finished
     assert f"resuming from {archived}" in (run1 / "tmopt.log").read_text()
     assert json.loads((run1 / "metrics.json").read_text())["n_evals"] == 240

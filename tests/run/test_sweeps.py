@@ -130,11 +130,16 @@ def test_both_sweeps_through_basic_and_joblib_then_collect_lists_failed_and_inco
     assert (early[("nsga3", "20")]["n_runs"], early[("nsga3", "20")]["n_complete"]) == (
         "2", "1")
 
-    # the same command through the other launcher (one worker: only resume/skip is checked)
-    _sweep(TABLE3, sweep, "local_parallel", "hydra.launcher.n_jobs=1")
-    assert "resuming from 40" in (unfinished / "tmopt.log").read_text()
+    # the same command through the other launcher (one worker: only resume/skip is checked);
+    # the finished runs are not even launched (tmopt/run/sweep_resume.py), the failed one is,
+    # to say again why it fails
     done = sweep / _folder("algorithm=nsga3", "problem=stiffness", "seed=0")
-    assert "already complete" in (done / "tmopt.log").read_text()
+    done_log = (done / "tmopt.log").read_text()
+    out = _sweep(TABLE3, sweep, "local_parallel", "hydra.launcher.n_jobs=1")
+    assert ("tmopt sweep: 8 runs: 6 skipped (complete), 1 resumed (40 archived evaluations), "
+            "1 blocked (launched to report why), 0 started; launching 2") in out
+    assert "resuming from 40" in (unfinished / "tmopt.log").read_text()
+    assert (done / "tmopt.log").read_text() == done_log
 
 
 @pytest.mark.slow
@@ -149,3 +154,7 @@ def test_submitit_local_launcher_writes_the_same_run_folders(tmp_path):
     assert (sweep / ".submitit").is_dir()  # submitit's own logs, which collect skips
     assert {r.name for r in discover_runs(sweep)} == {
         _folder("algorithm=nsga2", "seed=0"), _folder("algorithm=nsga2", "seed=1")}
+    again = _sweep(["algorithm=nsga2", "seed=0,1"], sweep, "submitit_local",
+                   "hydra.launcher.timeout_min=10")
+    assert ("tmopt sweep: 2 runs: 2 skipped (complete), 0 resumed (0 archived evaluations), "
+            "0 started; launching 0") in again

@@ -27,6 +27,7 @@ from tmopt.evaluation.archive import ArchiveError
 from tmopt.files import atomic_write_text
 from tmopt.run.build import build
 from tmopt.run.config import GROUPS, ConfigError, config_hash, register_configs
+from tmopt.run.run_lock import RunFolderBusy, hold_run_lock
 
 log = logging.getLogger("tmopt")
 
@@ -161,11 +162,17 @@ def run_from_config(cfg: DictConfig) -> dict | None:
         atomic_write_text(outdir / "config.yaml", OmegaConf.to_yaml(cfg, resolve=True))
         from tmopt.run.runner import run_optimisation
 
-        result = run_optimisation(
-            problem, algorithm, budget=cfg.budget, seed=cfg.seed, outdir=outdir,
-            config_hash=config_hash(cfg), resume=cfg.resume, progress=cfg.progress,
-            plots=cfg.plots, extra_metrics=getattr(problem, "extra_metrics", None),
-            eval_time_limit=cfg.eval_time_limit)
+        with hold_run_lock(outdir):  # one process per run folder (tmopt/run/run_lock.py)
+            result = run_optimisation(
+                problem, algorithm, budget=cfg.budget, seed=cfg.seed, outdir=outdir,
+                config_hash=config_hash(cfg), resume=cfg.resume, progress=cfg.progress,
+                plots=cfg.plots, extra_metrics=getattr(problem, "extra_metrics", None),
+                eval_time_limit=cfg.eval_time_limit)
+    except RunFolderBusy as exc:  # not a failure of this run: leave its folder alone
+        log.error("tmopt: not run: %s", exc)
+        if not multirun:
+            sys.exit(1)
+        return None
     except (ConfigError, ArchiveError, OSError) as exc:
         _record_failure(outdir, exc)
         log.error("tmopt: error: %s", exc)
