@@ -3,7 +3,7 @@
 #
 #   experiments/run_paper_sweeps.sh [PRESET] [SEEDS] [SCHEME_SEEDS] [STEPS]
 #
-#   PRESET        quick | results | paper (conf/experiment/; default results)
+#   PRESET        quick | results | paper (tmopt/conf/experiment/; default results)
 #   SEEDS         seeds of the Table 3 sweep (default 5: seeds 0..4)
 #   SCHEME_SEEDS  seeds of the scheme x k sweep, Figs. 8-9 (default 1)
 #   STEPS         which steps, in order, of "table3 schemes table3_bo" (default all three):
@@ -13,7 +13,7 @@
 #
 # Environment: LAUNCHER (default local_parallel = Hydra's joblib launcher, 2 processes;
 # basic, submitit_local or cluster also work), N_JOBS (default 2), ALGORITHMS (default:
-# every paper Table 3 algorithm that has a conf/algorithm file), NUMBA_NUM_THREADS (1:
+# every paper Table 3 algorithm that has a tmopt/conf/algorithm file), NUMBA_NUM_THREADS (1:
 # parallel runs instead of threads inside one run), NOISE (the stiffness problem's noise
 # mode, default fixed = the paper's one seed; fresh | average | information, docs/noise.md),
 # EXTRA (further overrides for every run, e.g. "problem.noise_samples=4").
@@ -42,8 +42,8 @@ TABLE3="nsga2 nsga3 cmoead ctsea ssde cmoes mgsaea mgsaea_star mgsaea_ipc"
 if [[ -z "${ALGORITHMS:-}" ]]; then
   present=()
   for a in $TABLE3; do
-    if [[ -f conf/algorithm/$a.yaml ]]; then present+=("$a"); else
-      echo "note: conf/algorithm/$a.yaml not found; $a is left out" >&2; fi
+    if [[ -f tmopt/conf/algorithm/$a.yaml ]]; then present+=("$a"); else
+      echo "note: tmopt/conf/algorithm/$a.yaml not found; $a is left out" >&2; fi
   done
   ALGORITHMS=$(IFS=,; echo "${present[*]}")
 fi
@@ -76,7 +76,7 @@ for step in $STEPS; do
       extra=(); [[ $PRESET == paper ]] && extra=(budget=697)
       cap=${QLOGNEHVI_MAX_BASELINE-64}
       [[ -n $cap ]] && extra+=("algorithm.max_baseline=$cap")
-      if [[ -f conf/algorithm/qlognehvi.yaml ]]; then
+      if [[ -f tmopt/conf/algorithm/qlognehvi.yaml ]]; then
         sweep "${TAG}_table3" algorithm=qlognehvi "seed=range(0,$SEEDS)" "${extra[@]}"
       fi ;;
     schemes)  # Figs. 8-9: schemes A/B/C x k = 1..5 with the preset's algorithm (MGSAEA-IPC)
