@@ -104,6 +104,7 @@ def write_outputs(problem, algorithm, data: ArchiveData, outdir: Path | None, *,
         "wall_time_s": round(float(wall_time), 3),
         "resumed_from": int(resumed_from),
         "config_hash": config_hash,
+        "algorithm_summary": algorithm.summary(),
         "versions": library_versions(),
     }
     if extra_metrics is not None:
