@@ -170,6 +170,24 @@ class ModelPlan:
         return P[:, :n_obj], np.maximum(P[:, n_obj:], 0.0).sum(axis=1)
 
 
+def granularity_plan(granularity: str, unsatisfied: np.ndarray, G: np.ndarray) -> ModelPlan:
+    """The stage-two plan of a granularity (TNNLS Sec. III) for the real population's
+    constraint values ``G``: "coarse" (one model of the total scaled violation, CDP),
+    "fine" (one model per constraint in ``unsatisfied``, summed violation an extra
+    objective) or "objectives" (objective models only, SPEA2; the real population
+    by CDP)."""
+    scale = violation_scale(G)
+    every = tuple(range(G.shape[1]))
+    if granularity == "coarse":
+        return ModelPlan("coarse", "cdp", every, True, "cdp", every, scale)
+    if granularity == "fine":
+        con = tuple(int(i) for i in unsatisfied)
+        return ModelPlan("fine", "fine", con, False, "fine", every, scale)
+    if granularity == "objectives":
+        return ModelPlan("objectives", "pareto", (), False, "cdp", every, scale)
+    raise ValueError(f"unknown granularity {granularity!r}")
+
+
 def rank_fitness(mode: str, F: np.ndarray, cv: np.ndarray, normalise: bool) -> np.ndarray:
     """SPEA2 fitness under one of the plan's ranking modes (PlatEMO's ``status``)."""
     if mode == "pareto":
@@ -314,21 +332,14 @@ class MGSAEA(Algorithm):
 
     def _make_plan(self) -> ModelPlan:
         G = self._pop.G
-        scale = violation_scale(G)
-        every = tuple(range(G.shape[1]))
         if self.stage == 1:
+            scale = violation_scale(G)
             con = self._stage_one_con
             label = {"none": "objectives", "key": "key", "all": "all"}[
                 self.stage_one_constraints]
             mode = "cdp" if con else "pareto"
             return ModelPlan(label, mode, con, False, mode, con, scale)
-        granularity, unsatisfied = choose_granularity(G)
-        if granularity == "coarse":
-            return ModelPlan("coarse", "cdp", every, True, "cdp", every, scale)
-        if granularity == "fine":
-            con = tuple(int(i) for i in unsatisfied)
-            return ModelPlan("fine", "fine", con, False, "fine", every, scale)
-        return ModelPlan("objectives", "pareto", (), False, "cdp", every, scale)
+        return granularity_plan(*choose_granularity(G), G)
 
     def _fit(self, plan: ModelPlan) -> Surrogate:
         """Fit one (multi-output) surrogate of every modelled output at once.
