@@ -15,10 +15,10 @@ from tmopt.algorithms.kts import (
     diversity_archive,
     eps_fitness,
     eps_truncation,
-    farthest_points,
     lp_distances,
     pure_diversity,
 )
+from tmopt.algorithms.operators.survival import farthest_points
 from tmopt.problems.suites import SUITE_PROBLEMS, PymooBenchmark
 
 from .contract import (

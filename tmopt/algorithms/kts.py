@@ -93,7 +93,12 @@ from tmopt.algorithms.mgsaea import (
     default_surrogate_factory,
 )
 from tmopt.algorithms.operators.constraints import dominance_matrix
-from tmopt.algorithms.operators.survival import environmental_selection, normalised, spea2_fitness
+from tmopt.algorithms.operators.survival import (
+    environmental_selection,
+    farthest_points,
+    normalised,
+    spea2_fitness,
+)
 from tmopt.algorithms.operators.variation import (
     ga_offspring,
     polynomial_mutation,
@@ -175,17 +180,6 @@ def eps_truncation(F: np.ndarray, n: int, kappa: float) -> np.ndarray:
 def lp_distances(A: np.ndarray, B: np.ndarray, p: float) -> np.ndarray:
     """(sum_k |a_k - b_k|^p)^(1/p) between rows (p < 1 allowed: KTA2's p = 1/M)."""
     return (np.abs(A[:, None, :] - B[None, :, :]) ** p).sum(axis=2) ** (1.0 / p)
-
-
-def farthest_points(D: np.ndarray, chosen: np.ndarray, n_total: int) -> np.ndarray:
-    """Grow the boolean mask ``chosen`` to ``n_total`` by adding, one at a time, the row
-    whose smallest distance ``D`` to the chosen rows is largest (ties: lowest index)."""
-    chosen = chosen.copy()
-    while chosen.sum() < min(n_total, len(D)):
-        rest = np.flatnonzero(~chosen)
-        gap = D[np.ix_(rest, np.flatnonzero(chosen))].min(axis=1)
-        chosen[rest[np.argmax(gap)]] = True
-    return chosen
 
 
 def diversity_archive(F: np.ndarray, n: int, p: float) -> np.ndarray:
