@@ -5,11 +5,11 @@ Tags: expensive, constrained, multi-objective, surrogate-assisted (real-valued v
 Implements
     Z. Song, H. Wang, B. Xue, M. Zhang, Y. Jin, "Balancing objective optimization and
     constraint satisfaction in expensive constrained evolutionary multiobjective
-    optimization", IEEE TEVC 28(5): 1286-1300, 2024 (reference code: PlatEMO
+    optimization", IEEE TEVC 28(5), 2024 (reference code: PlatEMO
     ``Algorithms/Multi-objective optimization/KTS``, written from, not translated). Its
     unconstrained mode is KTA2 (Song, Wang, He, Jin, "A Kriging-assisted two-archive
-    evolutionary algorithm for expensive many-objective optimization", IEEE TEVC 25(6):
-    1013-1027, 2021); its constrained mode is a surrogate-assisted two-population
+    evolutionary algorithm for expensive many-objective optimization", IEEE TEVC 25(6),
+    2021); its constrained mode is a surrogate-assisted two-population
     search in the manner of CCMO (Tian et al., IEEE TEVC 25(1), 2021).
 
 Parameters (keyword arguments; their defaults, PlatEMO's, are written once, in the
@@ -201,7 +201,7 @@ def diversity_archive(F: np.ndarray, n: int, p: float) -> np.ndarray:
 
 
 def pure_diversity(F: np.ndarray, p: float = 0.1) -> float:
-    """Pure diversity (Wang, Jin, Yao, IEEE TEVC 21(1), 2017) with the L_0.1 distance,
+    """Pure diversity (Wang, Jin, Yao, IEEE Trans. Cybern. 47(6), 2017) with the L_0.1 distance,
     by the greedy linkage of KTA2: each step links the design farthest from its nearest
     neighbour (skipping links inside one connected group) and adds that distance."""
     n = len(F)
