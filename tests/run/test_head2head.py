@@ -11,7 +11,8 @@ from omegaconf import OmegaConf
 from tmopt.run.cli import preflight
 from tmopt.run.config import ConfigError
 
-PRESET = Path(__file__).resolve().parents[2] / "conf" / "experiment" / "head2head.yaml"
+PRESET = Path(__file__).resolve().parents[2] / "tmopt" / "conf" / "experiment" / \
+    "head2head.yaml"
 ISSUE_24_ALGORITHMS = {"mgsaea", "mgsaea_ipc", "mgsaea_star", "kts", "drlsaea", "pea",
                        "qlognehvi"}
 
