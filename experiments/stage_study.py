@@ -4,8 +4,10 @@
 
 Prints a Markdown table: for every setting of ``--keys`` (complete runs only), the runs,
 how many reached stage two, the median iteration of the switch, the median over runs of
-the smallest and of the median change rate mc (seed paper Eq. 20) each run measured, and
-the mean IGD and HV. The numbers come from ``algorithm_summary`` (MGSAEA.summary), which
+the smallest and of the median change rate mc (seed paper Eq. 20) each run measured, the
+mean IGD and HV, and the two-sided Wilcoxon rank-sum p of IGD and HV against the setting
+that differs only in ``--reference`` (default: the paper's ``algorithm.threshold=0.001``
+and ``algorithm.gap=20``). The numbers come from ``algorithm_summary`` (MGSAEA.summary), which
 every MGSAEA-family run writes into its metrics.json.
 """
 
@@ -19,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from tmopt.reporting.runs import COMPLETE, discover_runs
+from tmopt.reporting.stats import fmt_p, rank_sum
 
 
 def _median(values: list) -> str:
@@ -32,8 +35,9 @@ def _mean(values: list) -> str:
         f"{vals[0]:.4f}" if vals else "n/a")
 
 
-def stage_rows(sweep: Path, keys: list[str]) -> list[list[str]]:
-    """One row per setting: key values, runs, stage-two runs, switch iteration, mc, IGD, HV."""
+def stage_rows(sweep: Path, keys: list[str], reference: dict[str, str]) -> list[list[str]]:
+    """One row per setting: key values, runs, stage-two runs, switch iteration, mc, IGD, HV
+    and their p against the reference setting."""
     groups: dict[tuple, list[dict]] = defaultdict(list)
     for run in discover_runs(sweep):
         if run.status == COMPLETE and "stage_reached" in run.metrics.get("algorithm_summary", {}):
@@ -41,13 +45,18 @@ def stage_rows(sweep: Path, keys: list[str]) -> list[list[str]]:
     rows = []
     for setting in sorted(groups):
         runs = groups[setting]
+        ref = tuple(reference.get(k, v) for k, v in zip(keys, setting))
+        theirs = groups.get(ref) if ref != setting else None
         summaries = [m["algorithm_summary"] for m in runs]
         mc = [s["mc"] for s in summaries if s["mc"]]
+        tests = [fmt_p(rank_sum([m.get(q) for m in runs], [m.get(q) for m in theirs]))
+                 if theirs else "" for q in ("igd", "hv")]
         rows.append([*setting, str(len(runs)),
                      str(sum(s["stage_reached"] >= 2 for s in summaries)),
                      _median([s["switch_iteration"] for s in summaries]),
                      _median([m["min"] for m in mc]), _median([m["median"] for m in mc]),
-                     _mean([m.get("igd") for m in runs]), _mean([m.get("hv") for m in runs])])
+                     _mean([m.get("igd") for m in runs]), tests[0],
+                     _mean([m.get("hv") for m in runs]), tests[1]])
     return rows
 
 
@@ -56,16 +65,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("sweep", type=Path)
     ap.add_argument("--keys", default="problem,algorithm.threshold",
                     help="comma list of setting keys (group choices or dotted config keys)")
+    ap.add_argument("--reference", default="algorithm.threshold=0.001,algorithm.gap=20",
+                    help="KEY=VALUE,... of the setting each row is tested against")
     args = ap.parse_args(argv)
     if not args.sweep.is_dir():
         print(f"stage_study: sweep folder {args.sweep} does not exist", file=sys.stderr)
         return 2
     keys = args.keys.split(",")
+    reference = dict(item.split("=", 1) for item in args.reference.split(","))
     header = [*keys, "runs", "stage two", "switch iteration (median)", "min mc (median)",
-              "median mc (median)", "IGD", "HV"]
+              "median mc (median)", "IGD", "p (IGD)", "HV", "p (HV)"]
     print("| " + " | ".join(header) + " |")
     print("|" + " --- |" * len(header))
-    for row in stage_rows(args.sweep, keys):
+    for row in stage_rows(args.sweep, keys, reference):
         print("| " + " | ".join(row) + " |")
     return 0
 
