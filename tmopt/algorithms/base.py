@@ -7,7 +7,7 @@ models) happens inside ``ask``/``tell``.
 
 Subclasses implement ``_setup``, ``_infill`` (pymoo's name for proposing designs) and
 ``_advance`` (updating the state with the evaluated batch), and may override
-``initial_sample_size`` and ``info``. An algorithm whose state is costly to rebuild on
+``initial_sample_size``, ``info`` and ``summary``. An algorithm whose state is costly to rebuild on
 resume may checkpoint it (:meth:`Algorithm._write_checkpoint`, :attr:`Algorithm.resume_state`).
 Constructors check their arguments with :func:`check_int` and :func:`check_number`, whose
 messages name the algorithm, the argument, the allowed range and the value.
@@ -163,6 +163,11 @@ class Algorithm(ABC):
 
     def info(self) -> dict:
         """Short state for progress lines (e.g. stage, granularity)."""
+        return {}
+
+    def summary(self) -> dict:
+        """The algorithm's own course over the run, for ``metrics.json`` (JSON values only;
+        e.g. the stage MGSAEA reached and when). Empty for algorithms without one."""
         return {}
 
     # ---- to implement ----------------------------------------------------------------

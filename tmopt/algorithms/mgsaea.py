@@ -170,6 +170,24 @@ class ModelPlan:
         return P[:, :n_obj], np.maximum(P[:, n_obj:], 0.0).sum(axis=1)
 
 
+def granularity_plan(granularity: str, unsatisfied: np.ndarray, G: np.ndarray) -> ModelPlan:
+    """The stage-two plan of a granularity (TNNLS Sec. III) for the real population's
+    constraint values ``G``: "coarse" (one model of the total scaled violation, CDP),
+    "fine" (one model per constraint in ``unsatisfied``, summed violation an extra
+    objective) or "objectives" (objective models only, SPEA2; the real population
+    by CDP)."""
+    scale = violation_scale(G)
+    every = tuple(range(G.shape[1]))
+    if granularity == "coarse":
+        return ModelPlan("coarse", "cdp", every, True, "cdp", every, scale)
+    if granularity == "fine":
+        con = tuple(int(i) for i in unsatisfied)
+        return ModelPlan("fine", "fine", con, False, "fine", every, scale)
+    if granularity == "objectives":
+        return ModelPlan("objectives", "pareto", (), False, "cdp", every, scale)
+    raise ValueError(f"unknown granularity {granularity!r}")
+
+
 def rank_fitness(mode: str, F: np.ndarray, cv: np.ndarray, normalise: bool) -> np.ndarray:
     """SPEA2 fitness under one of the plan's ranking modes (PlatEMO's ``status``)."""
     if mode == "pareto":
@@ -236,6 +254,9 @@ class MGSAEA(Algorithm):
         self.stage = 1
         self.iteration = 0
         self.last_mc: float | None = None
+        self._mc_trace: list[float] = []  # mc of every iteration that measured it
+        self._switch_iteration: int | None = None
+        self._granularities: list[str] = []  # "stage<k>:<granularity>" of every iteration
         self._plan: ModelPlan | None = None
         self._models: dict[tuple, Surrogate] = {}
         self._surrogate = self._factory or default_surrogate_factory()
@@ -256,6 +277,26 @@ class MGSAEA(Algorithm):
             out["mc"] = f"{self.last_mc:.3g}"
         return out
 
+    def summary(self) -> dict:
+        """Stage reached, the iteration whose models were the first of stage two (None:
+        never), and the change rate mc (Eq. 20) over the iterations that measured it.
+
+        ``stage_two_possible`` says whether the run had more than ``gap`` iterations, the
+        least before mc can be measured at all. ``granularity_iterations`` counts the
+        iterations of each plan, e.g. ``{"stage1:key": 38, "stage2:coarse": 2}``.
+        """
+        trace = np.asarray(self._mc_trace, dtype=float)
+        mc = None if not len(trace) else {
+            "n": int(len(trace)), "first": float(trace[0]), "last": float(trace[-1]),
+            "min": float(trace.min()), "median": float(np.median(trace)),
+            "max": float(trace.max())}
+        labels, counts = np.unique(self._granularities, return_counts=True)
+        return {"stage_reached": int(self.stage), "switch_iteration": self._switch_iteration,
+                "iterations": int(self.iteration), "gap": self.gap,
+                "threshold": self.threshold, "stage_two_possible": self.iteration > self.gap,
+                "mc": mc, "granularity_iterations": {str(k): int(v)
+                                                     for k, v in zip(labels, counts)}}
+
     # ---- ask --------------------------------------------------------------------------------
     def _infill(self) -> np.ndarray:
         if self._pop is None:
@@ -263,6 +304,7 @@ class MGSAEA(Algorithm):
             return self._remember(X)
         self._update_stage()
         self._plan = self._make_plan()
+        self._granularities.append(f"stage{self.stage}:{self._plan.granularity}")
         model = self._fit(self._plan)
         X, P = self._surrogate_search(self._plan, model)
         self.iteration += 1
@@ -279,28 +321,23 @@ class MGSAEA(Algorithm):
         if self.stage == 1 and len(self._ideal) > self.gap:
             self.last_mc = change_rate(self._ideal[-1], self._ideal[-1 - self.gap],
                                        sigma=self.sigma)
+            self._mc_trace.append(self.last_mc)
             if self.last_mc <= self.threshold:
                 self.stage = 2
+                self._switch_iteration = self.iteration + 1
                 log.info("%s: stage two after %d iterations (mc=%.3g <= %.3g)", self.name,
                          self.iteration, self.last_mc, self.threshold)
 
     def _make_plan(self) -> ModelPlan:
         G = self._pop.G
-        scale = violation_scale(G)
-        every = tuple(range(G.shape[1]))
         if self.stage == 1:
+            scale = violation_scale(G)
             con = self._stage_one_con
             label = {"none": "objectives", "key": "key", "all": "all"}[
                 self.stage_one_constraints]
             mode = "cdp" if con else "pareto"
             return ModelPlan(label, mode, con, False, mode, con, scale)
-        granularity, unsatisfied = choose_granularity(G)
-        if granularity == "coarse":
-            return ModelPlan("coarse", "cdp", every, True, "cdp", every, scale)
-        if granularity == "fine":
-            con = tuple(int(i) for i in unsatisfied)
-            return ModelPlan("fine", "fine", con, False, "fine", every, scale)
-        return ModelPlan("objectives", "pareto", (), False, "cdp", every, scale)
+        return granularity_plan(*choose_granularity(G), G)
 
     def _fit(self, plan: ModelPlan) -> Surrogate:
         """Fit one (multi-output) surrogate of every modelled output at once.

@@ -216,12 +216,13 @@ def _plain(value):
 
 def constructor_parameters(cls) -> dict[str, inspect.Parameter]:
     """Named parameters of ``cls(...)``, following ``**kwargs`` to a base class in the same
-    module.
+    package.
 
     A variant that adds arguments to a class of its own module (MGSAEA-IPC to MGSAEA)
     takes the base's as ``**kwargs`` and passes them on, so each default is defined once;
-    its parameters are then its own ones followed by the base's. A ``**kwargs`` passed to a
-    class elsewhere stays the last entry (the class accepts any key, as before).
+    its parameters are then its own ones followed by the base's; so does an algorithm of its
+    own file built on another's (DRL-SAEA on MGSAEA). A ``**kwargs`` passed to a class
+    elsewhere stays the last entry (the class accepts any key, as before).
     """
     params: dict[str, inspect.Parameter] = {}
     rest = None
@@ -241,16 +242,20 @@ def constructor_parameters(cls) -> dict[str, inspect.Parameter]:
 
 def _init_chain(cls) -> list:
     """``cls.__init__`` and, while it takes ``**kwargs``, the ``__init__`` of the next base
-    class that defines one, if that class is in the same module."""
+    class that defines one, if that class is in the same package (``tmopt.algorithms``)."""
     inits = [k for k in cls.__mro__ if "__init__" in vars(k)]
     chain = [inits[0]]
     for base in inits[1:]:
         takes_rest = any(p.kind is p.VAR_KEYWORD for p in
                          inspect.signature(vars(chain[-1])["__init__"]).parameters.values())
-        if not takes_rest or base.__module__ != chain[-1].__module__:
+        if not takes_rest or _package(base) != _package(chain[-1]):
             break
         chain.append(base)
     return [vars(k)["__init__"] for k in chain]
+
+
+def _package(cls) -> str:
+    return cls.__module__.rpartition(".")[0]
 
 
 # ---- validation of _target_ nodes ----------------------------------------------------
