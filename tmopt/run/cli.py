@@ -27,7 +27,8 @@ from tmopt.evaluation.archive import ArchiveError
 from tmopt.files import atomic_write_text
 from tmopt.run.build import build
 from tmopt.run.config import GROUPS, ConfigError, config_hash, register_configs
-from tmopt.run.run_lock import RunFolderBusy, hold_run_lock
+from tmopt.run.run_lock import RunFolderBusy
+from tmopt.run.runner import FolderOfAnotherRun
 
 log = logging.getLogger("tmopt")
 
@@ -109,6 +110,26 @@ def _check_one(overrides: list[str], multirun: bool) -> None:
         raise ConfigError(_composition_message(exc, overrides)) from None
     _check_output_dir(Path(outdir))
     build(cfg, dict(cfg.hydra.runtime.choices))
+    if not multirun:  # a sweep's folders are looked at by its sweeper (sweep_resume.py)
+        _check_run_folder(cfg, Path(outdir))
+
+
+def _check_run_folder(cfg: DictConfig, outdir: Path) -> None:
+    """Refuse, before Hydra writes into it, a folder held by a live process or holding a
+    run of another configuration (the runner checks again under the lock)."""
+    from tmopt.run.run_lock import describe_holder, lock_holder
+    from tmopt.run.runner import check_folder_owner
+
+    if not outdir.is_dir():
+        return
+    holder = lock_holder(outdir)
+    if holder is not None:
+        raise RunFolderBusy(f"run folder {outdir} is in use by {describe_holder(holder)}")
+    task = OmegaConf.masked_copy(cfg, [k for k in cfg if k != "hydra"])
+    try:
+        check_folder_owner(outdir, config_hash(task), bool(cfg.get("resume", True)))
+    except FolderOfAnotherRun as exc:
+        raise ConfigError(str(exc)) from None
 
 
 def _check_output_dir(path: Path) -> None:
@@ -159,16 +180,17 @@ def run_from_config(cfg: DictConfig) -> dict | None:
     multirun = hc.mode == RunMode.MULTIRUN
     try:
         problem, algorithm = build(cfg, choices)
-        atomic_write_text(outdir / "config.yaml", OmegaConf.to_yaml(cfg, resolve=True))
         from tmopt.run.runner import run_optimisation
 
-        with hold_run_lock(outdir):  # one process per run folder (tmopt/run/run_lock.py)
-            result = run_optimisation(
-                problem, algorithm, budget=cfg.budget, seed=cfg.seed, outdir=outdir,
-                config_hash=config_hash(cfg), resume=cfg.resume, progress=cfg.progress,
-                plots=cfg.plots, extra_metrics=getattr(problem, "extra_metrics", None),
-                eval_time_limit=cfg.eval_time_limit)
-    except RunFolderBusy as exc:  # not a failure of this run: leave its folder alone
+        # the runner holds the folder's lock and writes config.yaml once the folder is
+        # known to be this run's (a refused run leaves another run's folder as it was)
+        result = run_optimisation(
+            problem, algorithm, budget=cfg.budget, seed=cfg.seed, outdir=outdir,
+            config_hash=config_hash(cfg), resume=cfg.resume, progress=cfg.progress,
+            plots=cfg.plots, extra_metrics=getattr(problem, "extra_metrics", None),
+            eval_time_limit=cfg.eval_time_limit,
+            config_text=OmegaConf.to_yaml(cfg, resolve=True))
+    except (RunFolderBusy, FolderOfAnotherRun) as exc:  # leave the folder as it is
         log.error("tmopt: not run: %s", exc)
         if not multirun:
             sys.exit(1)
@@ -259,4 +281,7 @@ def main() -> None:
         except ConfigError as exc:
             print(f"tmopt: error: {exc}", file=sys.stderr)
             sys.exit(2)
+        except RunFolderBusy as exc:
+            print(f"tmopt: not run: {exc}", file=sys.stderr)
+            sys.exit(1)
     _hydra_main()

@@ -97,7 +97,11 @@ def _read_holder(path: Path) -> dict:
 
 
 def _describe(path: Path) -> str:
-    h = _read_holder(path)
+    return describe_holder(_read_holder(path))
+
+
+def describe_holder(h: dict) -> str:
+    """``process <pid> on <host>[, SLURM job <id>] (since <time>)`` for a lock holder."""
     if not h:
         return "another process"
     job = f", SLURM job {h['slurm_job']}" if h.get("slurm_job") else ""
