@@ -232,6 +232,11 @@ def _write_h5(tmp: str, data: ArchiveData, attrs: dict) -> None:
             dtype=h5py.string_dtype()))
 
 
+def has_checksums(data: ArchiveData) -> bool:
+    """Whether ``data`` was read from an archive with batch checksums (format >= 2)."""
+    return int(data.attrs.get("format_version", 1)) >= 2
+
+
 class ArchiveDamaged(ArchiveError):
     """Rows of the archive no longer match their checksums (see :attr:`damaged`)."""
 
@@ -282,8 +287,9 @@ def read_archive_checked(path: str | Path) -> tuple[ArchiveData, list[DamagedBat
         data.reason = [str(r) for r in data.reason]
     except ArchiveError:
         raise
-    except (OSError, KeyError, ValueError, TypeError) as exc:
-        raise ArchiveError(f"{path}: cannot read the evaluation archive ({exc})") from exc
+    except Exception as exc:  # noqa: BLE001 - h5py reports a damaged file in many types
+        raise ArchiveError(f"{path}: cannot read the evaluation archive "
+                           f"({type(exc).__name__}: {exc})") from exc
     damaged = damaged_batches(cols, *checksums) if checksums is not None else []
     return data, damaged
 

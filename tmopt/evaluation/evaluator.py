@@ -194,6 +194,13 @@ class Evaluator:
                            seed=np.full(len(X), self.seed, dtype=np.int64),
                            wall_time=np.full(len(X), wall), batch=np.zeros(len(X), np.int64))
 
+    def flush(self, rewrite: bool = False) -> None:
+        """Write the archive if this run repaired rows that the file still holds damaged
+        (a replay that ends the run never reaches the first real batch that would), or
+        when ``rewrite`` asks (a round-one archive gains its checksums)."""
+        if self._persist and (self.n_reevaluated or rewrite) and self.n_replayed_left == 0:
+            self.archive.save()
+
     def close(self) -> None:
         """Stop the evaluation worker, if any."""
         if self._isolated is not None:

@@ -22,6 +22,7 @@ from tmopt.evaluation.archive import (
     ArchiveData,
     ArchiveError,
     EvaluationArchive,
+    has_checksums,
     read_archive,
     read_archive_checked,
 )
@@ -92,6 +93,8 @@ def run_optimisation(
         RunFolderBusy: another live process runs in ``outdir``.
     """
     outdir = _prepare_outdir(outdir)
+    if outdir is not None:  # refuse before touching anything, and again under the lock
+        check_folder_owner(outdir, config_hash, resume)
     with hold_run_lock(outdir) if outdir is not None else contextlib.nullcontext():
         return _run_locked(problem, algorithm, budget, seed, outdir, config_hash, resume,
                            progress, plots, extra_metrics, eval_time_limit, config_text)
@@ -141,6 +144,7 @@ def _run_locked(problem, algorithm, budget, seed, outdir, config_hash, resume, p
             algorithm.tell(batch)
             reporter.update(algorithm.n_gen, evaluator.archive.data, algorithm.info(),
                             replaying=evaluator.n_replayed_left > 0)
+        evaluator.flush(rewrite=replay is not None and not has_checksums(replay))
     finally:
         reporter.close()
         evaluator.close()
@@ -208,7 +212,7 @@ def _archive_owner(path: Path) -> str | None:
 
         with h5py.File(path, "r") as h5:
             value = h5.attrs.get("config_hash")
-    except (OSError, ValueError, KeyError):
+    except Exception:  # noqa: BLE001 - unreadable: the run keeps it aside (_load_replay)
         return None
     return value.decode() if isinstance(value, bytes) else (None if value is None else str(value))
 
