@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -172,9 +173,9 @@ def _prepare_outdir(outdir) -> Path | None:
     outdir = Path(outdir)
     try:
         outdir.mkdir(parents=True, exist_ok=True)
-        probe = outdir / ".write-test"
-        probe.write_text("ok")
-        probe.unlink()
+        # a probe of its own: two runs started together must not remove each other's
+        with tempfile.NamedTemporaryFile(dir=outdir, prefix=".write-test-"):
+            pass
     except OSError as exc:
         raise OSError(f"output folder {outdir} is not writable: {exc.strerror or exc}") from exc
     return outdir

@@ -38,7 +38,7 @@ from omegaconf import DictConfig, OmegaConf, open_dict, read_write
 from tmopt.evaluation.archive import ArchiveError, read_archive_checked
 from tmopt.run.config import config_hash
 from tmopt.run.outputs import finished_metrics
-from tmopt.run.run_lock import lock_holder
+from tmopt.run.run_lock import describe_holder, lock_holder
 from tmopt.run.runner import ARCHIVE_FILE, FolderOfAnotherRun, check_folder_owner
 
 #: Order of the states in the summary line.
@@ -75,8 +75,7 @@ def classify_run(target: JobTarget) -> tuple[str, int, str]:
     outdir = target.outdir
     holder = lock_holder(outdir) if outdir.is_dir() else None
     if holder is not None:
-        job = f", SLURM job {holder['slurm_job']}" if holder.get("slurm_job") else ""
-        return "running", 0, f"in use by process {holder.get('pid')} on {holder.get('host')}{job}"
+        return "running", 0, f"in use by {describe_holder(holder)}"
     try:
         check_folder_owner(outdir, target.config_hash, target.resume)
     except FolderOfAnotherRun:
