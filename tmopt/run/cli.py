@@ -11,8 +11,9 @@ from __future__ import annotations
 
 import json
 import logging
-import os
+import re
 import sys
+import tempfile
 from pathlib import Path
 
 import hydra
@@ -26,7 +27,7 @@ from omegaconf import DictConfig, OmegaConf
 from tmopt.evaluation.archive import ArchiveError
 from tmopt.files import atomic_write_text
 from tmopt.run.build import build
-from tmopt.run.config import GROUPS, ConfigError, config_hash, register_configs
+from tmopt.run.config import GROUPS, ConfigError, config_hash, did_you_mean, register_configs
 from tmopt.run.run_lock import RunFolderBusy
 from tmopt.run.runner import FolderOfAnotherRun
 
@@ -107,7 +108,8 @@ def _check_one(overrides: list[str], multirun: bool) -> None:
         cfg = compose(config_name="config", overrides=overrides, return_hydra_config=True)
         outdir = cfg.hydra.sweep.dir if multirun else cfg.hydra.run.dir
     except Exception as exc:  # noqa: BLE001 - turn Hydra's report into one line
-        raise ConfigError(_composition_message(exc, overrides)) from None
+        raise ConfigError(_unknown_key_message(exc, overrides)
+                          or _composition_message(exc, overrides)) from None
     _check_output_dir(Path(outdir))
     build(cfg, dict(cfg.hydra.runtime.choices))
     if not multirun:  # a sweep's folders are looked at by its sweeper (sweep_resume.py)
@@ -139,8 +141,30 @@ def _check_output_dir(path: Path) -> None:
         ancestor = ancestor.parent
     if not ancestor.is_dir():
         raise ConfigError(f"output folder {path} cannot be created: {ancestor} is a file")
-    if not os.access(ancestor, os.W_OK | os.X_OK):
-        raise ConfigError(f"output folder {path} is not writable ({ancestor} is read-only)")
+    try:  # try it (os.access says yes to root even where the file system says no)
+        tempfile.TemporaryDirectory(dir=ancestor, prefix=".tmopt-probe-").cleanup()
+    except OSError as exc:
+        raise ConfigError(f"output folder {path} cannot be created: {ancestor} is not "
+                          f"writable ({exc.strerror or exc})") from None
+
+
+def _unknown_key_message(exc: Exception, overrides: list[str]) -> str | None:
+    """``unknown key a.b; did you mean 'c'? allowed keys: ...`` for Hydra's "Key 'b' is
+    not in struct" (composed once more without that override, to list the keys)."""
+    text = f"{exc} {exc.__cause__ or ''}"
+    found = re.search(r"Could not override '([\w.]+)'", text)
+    if not found or "not in struct" not in text:
+        return None
+    path = found[1]
+    parent, _, key = path.rpartition(".")
+    others = [o for o in overrides if o.split("=", 1)[0].lstrip("+~") != path]
+    try:
+        node = compose(config_name="config", overrides=others)
+        node = OmegaConf.select(node, parent) if parent else node
+        keys = [str(k) for k in node if not str(k).startswith("_")]
+    except Exception:  # noqa: BLE001 - fall back to Hydra's own words
+        return None
+    return f"unknown key {path};{did_you_mean(key, keys)} allowed keys: {', '.join(keys)}"
 
 
 def _composition_message(exc: Exception, overrides: list[str]) -> str:
