@@ -241,7 +241,7 @@ def time_limit_check(out: Path) -> bool:
 
     The run (the ``faulty`` test problem, 1 s of sleep per batch of 10: 30 s of work that
     leaves the CPU idle) gets a 1 min limit and USR2 30 s before it, so its first instance
-    is requeued after ~30 s (``max_num_timeout`` of conf/hydra/launcher/cluster.yaml);
+    is requeued after ~30 s (``max_num_timeout`` of tmopt/conf/hydra/launcher/cluster.yaml);
     SLURM holds a requeued job ~2 min before it starts again, and the next instance
     resumes from the archive. Its archive must equal that of the same run through the
     basic launcher (run meanwhile). Prints ``slurm: time_limit requeued=R ...``.
