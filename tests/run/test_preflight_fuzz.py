@@ -101,7 +101,8 @@ def _run_setting_cases() -> list[tuple[list[str], str]]:
         "seed": ["-1", str(2**63), str(2**64), "1.5", "nan", "x"],
         "budget": ["0", "-5", str(2**63), "1.5", "inf", "x"],
         "eval_time_limit": ["0", "-1", "nan", "inf", "x"],
-        "resume": ["maybe", "2"], "progress": ["maybe", "2"], "plots": ["maybe", "2"],
+        # (OmegaConf reads an integer as a bool, 2 as true: its documented conversion)
+        "resume": ["maybe", "[1]"], "progress": ["maybe", "[1]"], "plots": ["maybe", "[1]"],
     }
     cases = [([*CHEAP, "algorithm=nsga2", f"{key}={v}"], key) for key, vals in bad.items()
              for v in vals]
