@@ -114,7 +114,8 @@ def test_a_variant_takes_its_base_arguments_once_and_they_are_checked():
     with pytest.raises(ConfigError, match="algorithm.wmax='ten' has the wrong type"):
         check_node("algorithm", node, "mgsaea_ipc")
     node = OmegaConf.create({"_target_": "tmopt.algorithms.mgsaea.MGSAEAIPC", "wmx": 10})
-    with pytest.raises(ConfigError, match="unknown key algorithm.wmx; allowed keys: ungrouped"):
+    with pytest.raises(ConfigError, match=r"unknown key algorithm.wmx; did you mean 'wmax'\? "
+                                          "allowed keys: ungrouped"):
         check_node("algorithm", node, "mgsaea_ipc")
     with pytest.raises(TypeError):
         MGSAEAIPC(100)  # keyword arguments only

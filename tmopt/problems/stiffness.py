@@ -171,7 +171,7 @@ class StiffnessProblem(ExpensiveProblem):
         self.n_heldout = int(heldout_seeds)
         self._fresh_rows = 0  # fresh draws without an evaluator: rows counted here
         self.epsilon = _positive(name, "epsilon", epsilon)
-        self.m_weights = tuple(float(w) for w in m_weights)
+        self.m_weights = _weights(name, m_weights)
         if constraints not in CONSTRAINT_MODES:
             raise ValueError(f"problem {name}: constraints must be one of {CONSTRAINT_MODES}, "
                              f"got {constraints!r}")
@@ -448,6 +448,15 @@ def _positive(problem: str, label: str, value) -> float:
         raise ValueError(f"problem {problem}: {label} must be a finite number > 0, "
                          f"got {value!r}")
     return value
+
+
+def _weights(problem: str, pair) -> tuple[float, float]:
+    """Eq. 29's weights (time, accuracy): two finite numbers > 0."""
+    vals = tuple(float(v) for v in pair) if isinstance(pair, (list, tuple)) else ()
+    if len(vals) != 2 or not all(math.isfinite(v) and v > 0 for v in vals):
+        raise ValueError(f"problem {problem}: m_weights must be two finite numbers > 0, "
+                         f"got {pair!r}")
+    return vals
 
 
 def _interval(problem: str, label: str, pair, minimum: float | None = None):

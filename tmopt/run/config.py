@@ -14,11 +14,13 @@ constructor's own checks name ranges. (Decision recorded in docs/decisions.md.)
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import hashlib
 import importlib
 import inspect
 import json
+import math
 import re
 import types
 import typing
@@ -90,6 +92,40 @@ def did_you_mean(word: str, choices: Sequence[str]) -> str:
     lowered = {str(c).lower(): str(c) for c in choices}
     close = difflib.get_close_matches(str(word).lower(), list(lowered), n=1)
     return f" did you mean {lowered[close[0]]!r}?" if close else ""
+
+
+#: Integers are stored as int64 (archives, seeds, metrics): larger ones are refused.
+INT64_MAX = 2**63 - 1
+
+
+def check_value(name: str, value) -> None:
+    """What every configured number must be, whatever its parameter: finite (NaN and inf
+    are never a setting) and, for an integer, within int64. Lists are checked element by
+    element. Parameter-specific ranges are checked by the constructors.
+
+    Raises:
+        ConfigError: one line naming ``name``.
+    """
+    if isinstance(value, (list, tuple, ListConfig)):
+        for v in value:
+            check_value(name, v)
+    elif isinstance(value, bool):
+        return
+    elif isinstance(value, int) and abs(value) > INT64_MAX:
+        raise ConfigError(f"{name}={value} is out of range: integers must lie within "
+                          f"+-(2^63 - 1)")
+    elif isinstance(value, float) and not math.isfinite(value):
+        raise ConfigError(f"{name}={value} is invalid: must be a finite number")
+
+
+def check_top_level_keys(cfg: DictConfig) -> None:
+    """Refuse a key at the top of the configuration that is neither a run setting nor a
+    config group (``+foo=1``)."""
+    allowed = [f.name for f in dataclasses.fields(RunConfig)]
+    for key in cfg:
+        if key != "hydra" and key not in allowed:
+            raise ConfigError(f"unknown key {key!r};{did_you_mean(key, allowed)} allowed "
+                              f"top-level keys: {', '.join(allowed)}")
 
 
 @dataclass
@@ -285,13 +321,18 @@ def check_node(group: str, node: DictConfig | dict, choice: str = "") -> type:
         if key not in params:
             if accepts_any:
                 continue
-            allowed = ", ".join(k for k, p in params.items()
-                                if p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD))
-            raise ConfigError(f"{label}: unknown key {group}.{key}; allowed keys: {allowed}")
+            names = [k for k, p in params.items()
+                     if p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)]
+            raise ConfigError(f"{label}: unknown key {group}.{key};{did_you_mean(key, names)} "
+                              f"allowed keys: {', '.join(names)}")
         expected = hints.get(key)
         if expected is not None and not _matches(value, expected):
             raise ConfigError(f"{label}: {group}.{key}={_show(value)} has the wrong type; "
                               f"expected {_type_name(expected)}")
+        try:
+            check_value(f"{group}.{key}", value)
+        except ConfigError as exc:
+            raise ConfigError(f"{label}: {exc}") from None
     return cls
 
 

@@ -40,16 +40,22 @@ RECORDED_LIBRARIES = ("torch", "botorch", "gpytorch", "linear_operator", "pymoo"
                       "scipy", "numba", "hydra-core", "omegaconf", "h5py")
 
 
-def finished_metrics(outdir: Path, config_hash: str) -> dict | None:
-    """The metrics of a finished run of the same configuration in ``outdir``, else None."""
+def read_metrics(outdir: Path) -> dict | None:
+    """The complete ``metrics.json`` in ``outdir`` (any configuration), else None."""
     path = Path(outdir) / METRICS_FILE
-    if not path.exists():
-        return None
     try:
         metrics = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError):
+    except (OSError, ValueError):
         return None
-    if metrics.get("status") != STATUS_COMPLETE:
+    if not isinstance(metrics, dict) or metrics.get("status") != STATUS_COMPLETE:
+        return None
+    return metrics
+
+
+def finished_metrics(outdir: Path, config_hash: str) -> dict | None:
+    """The metrics of a finished run of the same configuration in ``outdir``, else None."""
+    metrics = read_metrics(outdir)
+    if metrics is None:
         return None
     if config_hash and metrics.get("config_hash") != config_hash:
         return None
