@@ -446,6 +446,12 @@ def identifiability(data: Data, basis: np.ndarray, state: State, settings: Setti
         for cand in effect.candidates(ctx):
             if cand.plausible is None or cand.group not in nominal:
                 continue
+            if cand.source_axis is not None and not data.tones(cand.source_axis):
+                out.append({"name": cand.effect, "channel": cand.channel,
+                            "reason": "not excited", "aliased_with": None,
+                            "min_detectable": None, "plausible": cand.plausible,
+                            "needs": effect.needs})  # fmt: skip
+                continue
             cols, whiten = nominal[cand.group]
             if cand.group == "kinematic":
                 rec = _identifiable_iv(cand, kin_group, z2)

@@ -183,26 +183,26 @@ class Data:
 
 def excitation_tones(x: np.ndarray, fs: float, max_tones: int = 6) -> list[float]:
     """Frequencies [Hz] of the strongest lines of a series: Hann-windowed periodogram peaks
-    at least 1e4 x the *local* median (bins within a factor 2 in frequency) -- a
-    deterministic excitation, not noise, even on a red readout spectrum (a 1/f^2 readout
-    excess is 1e3-1e4 x its white floor at the lowest bins)."""
+    at least 1e4 x the median of their surroundings (bins k/2 .. max(2k, k + 32), the peak's
+    own +-4 bins left out) -- a deterministic excitation, not noise, even on a red readout
+    spectrum (a 1/f^2 readout excess is 1e3-1e4 x its white floor at the lowest bins,
+    which a record-wide median would call lines)."""
     m = x.size
     if m < 16:
         return []
     per = np.abs(np.fft.rfft((x - x.mean()) * np.hanning(m))) ** 2
     f = np.fft.rfftfreq(m, 1 / fs)
-    # local median: medians over octave-wide bands (>= 8 bins), interpolated in log f
-    centres, levels, a = [], [], 1
-    while a < per.size:
-        b = min(per.size, max(a + 8, 2 * a))
-        centres.append(0.5 * (a + b - 1))
-        levels.append(np.median(per[a:b]))
-        a = b
-    local = np.exp(np.interp(np.log(np.maximum(np.arange(per.size), 1)), np.log(centres),
-                             np.log(np.maximum(levels, 1e-300))))  # fmt: skip
-    peaks, _ = signal.find_peaks(per, height=1e4 * local + 1e-300)
-    peaks = peaks[np.argsort(-per[peaks])][:max_tones]
-    return sorted(_refine_tone(x, fs, float(f[k])) for k in peaks if k > 0)
+    floor = 1e-300 + 1e-30 * float(per.max())
+    peaks, _ = signal.find_peaks(per, height=1e3 * np.median(per[1:]) + floor)
+    keep = []
+    for k in peaks:
+        lo, hi = max(1, k // 2), min(per.size, max(2 * k, k + 32))
+        around = np.concatenate([per[lo : max(lo, k - 4)], per[min(hi, k + 5) : hi]])
+        local = float(np.median(around)) if around.size >= 8 else float(np.median(per[1:]))
+        if per[k] >= 1e4 * local + floor:
+            keep.append(k)
+    keep = sorted(keep, key=lambda k: -per[k])[:max_tones]
+    return sorted(_refine_tone(x, fs, float(f[k])) for k in keep if k > 0)
 
 
 def _refine_tone(x: np.ndarray, fs: float, f0: float) -> float:

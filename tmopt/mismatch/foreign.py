@@ -27,9 +27,10 @@ code:
 * geometry: its own frame rotations from the angles.
 
 What it shares with the project: the effect catalogue's *injections* (the named slots of
-:class:`tmopt.mismatch.effects.Builder`, which it maps onto its own physics) and the
-excitation references.  Used by :func:`tmopt.mismatch.realistic.realistic_recording`
-with ``backend="foreign"``.
+:class:`tmopt.mismatch.effects.Builder`, read through the validated
+:class:`~tmopt.physics.simulator.Perturbations` container and mapped onto its own
+physics) and the excitation references.  Used by
+:func:`tmopt.mismatch.realistic.realistic_recording` with ``backend="foreign"``.
 """
 
 from __future__ import annotations
@@ -191,16 +192,21 @@ def run_foreign(plan) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
     wa, wb = _frame(geo.phi1), _frame(geo.phi2)
     sep = geo.separation
     lever = ((0.5 * sep, 0.0), (-0.5 * sep, 0.0))  # TM1, TM2 centres in frame s (z = 0)
-    fields = b.fields
-    gain = fields.get("actuation_gain")
-    delay = fields.get("actuation_delay")
-    qstep = fields.get("actuation_step")
-    dk = fields.get("stiffness_change")
-    coupling = fields.get("stiffness_coupling")
-    cubic = fields.get("cubic_stiffness")
-    force = fields.get("force")
-    omega, omega_dot = fields.get("omega"), fields.get("omega_dot")
-    readout = fields.get("readout")
+    # the injections' named hooks (a validated container; the physics is this module's)
+    pert = b.perturbations()
+
+    def hook(value):
+        return None if pert is None or value is None else np.asarray(value, float)
+
+    gain = hook(pert and pert.actuation_gain)
+    delay = hook(pert and pert.actuation_delay)
+    qstep = hook(pert and pert.actuation_step)
+    dk = hook(pert and pert.stiffness_change)
+    coupling = hook(pert and pert.stiffness_coupling)
+    cubic = hook(pert and pert.cubic_stiffness)
+    force = hook(pert and pert.force)
+    omega, omega_dot = hook(pert and pert.omega), hook(pert and pert.omega_dot)
+    readout = hook(pert and pert.readout)
     ooc = [o for o in plan.ooc if o.spec.force is not None]
     refs = plan.refs
 

@@ -54,6 +54,7 @@ from typing import Any
 import numpy as np
 
 from tmopt.mismatch.effects import Builder, Injection, effect
+from tmopt.mismatch.effects.glitch import Glitch
 from tmopt.mismatch.generate import (
     TRUTH_FORMAT,
     TRUTH_VERSION,
@@ -260,7 +261,7 @@ def draw_glitches(seed: int, scenario: Scenario, count: int,
             opts["overshoot"] = rng.uniform(1.5, 4.0)
         onset = float(rng.uniform(0.05, 0.85) * scenario.duration)
         dv = _log_uniform(rng, *dv_range) * rng.choice([-1.0, 1.0])
-        out.append(Injection("glitch", float(dv), str(rng.choice(AXES)), onset=onset,
+        out.append(Injection(Glitch.name, float(dv), str(rng.choice(AXES)), onset=onset,
                              options=opts))  # fmt: skip
     return tuple(out)
 

@@ -178,6 +178,10 @@ class Candidate:
     text: str = ""
     twin: Column | None = None  # the same parameter's prediction in the kinematic group
     n_searched: int = 0  # parameters found by search (counted in the BIC penalty)
+    #: Axis whose motion drives the effect (a coupling's source): identifiability calls
+    #: it "not excited" when that axis has no excitation tones -- its readout is then
+    #: mostly readout noise, which is not motion.
+    source_axis: int | None = None
 
     @property
     def key(self) -> str:

@@ -131,14 +131,18 @@ class Glitch(Effect):
             for kind in self.KINDS:
                 g = glitch_shape(np.arange(m) * d.dt, beta, kind)
                 for a in range(4):
-                    t = noise.whiten_template(axis_column(ctx.basis, a, g), nfft)[:, :m]
-                    corr = np.fft.irfft(ef * np.conj(np.fft.rfft(t, nfft, axis=1)), nfft,
+                    # the whitening filter is two-sided: the whitened template has a part
+                    # before the onset, wrapped to the end of the circular buffer; the
+                    # circular correlation keeps it
+                    t = noise.whiten_template(axis_column(ctx.basis, a, g), nfft)
+                    corr = np.fft.irfft(ef * np.conj(np.fft.rfft(t, axis=1)), nfft,
                                         axis=1)[:, :m].sum(axis=0)  # fmt: skip
-                    energy = np.cumsum(np.sum(t**2, axis=0))[::-1]  # cut at the record's end
-                    if energy[0] <= 0:
+                    total = float(np.sum(t**2))
+                    if total <= 0:
                         continue
                     # onsets whose template is mostly cut off by the record's end: skipped
-                    lam = np.where(energy >= 0.5 * energy[0], corr**2 / energy[0], 0.0)
+                    tail = np.cumsum(np.sum(t[:, :m] ** 2, axis=0))[::-1]
+                    lam = np.where(tail >= 0.5 * tail[0], corr**2 / total, 0.0)
                     k = int(np.argmax(lam))
                     trials += m
                     if best is None or lam[k] > best[0]:
