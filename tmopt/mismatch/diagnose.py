@@ -52,7 +52,7 @@ from tmopt.mismatch.fit import (
 )
 from tmopt.mismatch.locate import Locations, locate
 from tmopt.mismatch.noise_model import RED_EXPONENTS, NoiseModel, fit_red
-from tmopt.mismatch.plausibility import Verdict, precheck
+from tmopt.mismatch.plausibility import Verdict, implausible_effects, precheck
 
 __all__ = ["Settings", "Evaluation", "State", "Diagnosis", "diagnose", "fit_state"]
 
@@ -639,6 +639,26 @@ def _deterministic_instead(data, basis, state: State, evals: list[Evaluation],
     return None
 
 
+def effect_parameters(state: State, cand: Candidate) -> dict[str, tuple[float, float]]:
+    """A selected candidate's reported parameters ``{name: (value, sigma)}`` in ``state``
+    (its fitted columns through :meth:`Candidate.physical`); searched parameters as given."""
+    if cand.group == "noise":
+        return {}
+    fit = state.eq_fit if cand.group == "equation" else state.kin_fit
+    idx = [fit.names.index(c.name) for c in cand.columns]
+    return cand.physical(fit.coef[idx], fit.cov[np.ix_(idx, idx)])
+
+
+def _implausible(state: State, selected: list) -> str | None:
+    """:func:`tmopt.mismatch.plausibility.implausible_effects` on the selected effects."""
+    entries = []
+    for ev, _ in selected:
+        params = {k: v for k, (v, _) in effect_parameters(state, ev.candidate).items()}
+        entries.append({"name": ev.candidate.effect, "channel": ev.candidate.channel,
+                        "parameters": params})  # fmt: skip
+    return implausible_effects(entries)
+
+
 def _refused(data: Data, settings: Settings, verdict: Verdict, reason: str) -> Diagnosis:
     return Diagnosis(data=data, basis=None, before=None, after=None, selected=[],
                      locations=Locations(), locations_after=Locations(), not_identifiable=[],
@@ -702,6 +722,9 @@ def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
         if len(kept) < len(selected):
             selected = kept
             state = _rebuild(data, basis, [ev for ev, _ in kept], settings)
+    reason = _implausible(state, selected)
+    if reason is not None:
+        return _refused(data, settings, verdict, reason)
     return Diagnosis(
         data=data, basis=basis, before=before, after=state, selected=selected,
         locations=_locate_state(data, basis, before, settings.locate_alpha),
