@@ -188,7 +188,7 @@ def score(rep: dict, truth: dict) -> dict:
     testable = [e for e, s in zip(truth["effects"], snr)
                 if s >= IDENTIFIABLE_SNR and not _untestable(rep, e["name"])]  # fmt: skip
     extra = [n for n in names if n not in true_names]
-    unexpl = rep.get("locations_unexplained", {}) or {}
+    unexpl = rep.get("unexplained_at", {}) or {}
     chans = unexpl.get("channels", []) if rep.get("unexplained") else []
     row = {
         "refused": rep.get("status") == "cannot_diagnose",

@@ -32,6 +32,7 @@ import numpy as np
 from scipy import stats
 
 from tmopt.mismatch import calibration as cal
+from tmopt.mismatch import generic
 from tmopt.mismatch.effects import CATALOGUE, EFFECTS, Candidate, Context
 from tmopt.mismatch.fit import (
     AXES,
@@ -61,12 +62,15 @@ __all__ = ["Settings", "Evaluation", "State", "Diagnosis", "diagnose", "fit_stat
 class Settings:
     """``noise``: ``coloured`` (default; a robust cross-spectral matrix per residual group,
     estimated from the recording) or ``white`` (round one's white equation noise with
-    ``colored_noise`` as a testable alternative -- for instruments known to be white)."""
+    ``colored_noise`` as a testable alternative -- for instruments known to be white).
+    ``generic``: also test unnamed features (steps, lines, curvature; reported as
+    unexplained, :mod:`tmopt.mismatch.generic`)."""
 
     alpha: float = cal.FAMILY_ALPHA
     locate_alpha: float = cal.LOCATE_ALPHA
     max_effects: int = 4
     noise: str = "coloured"
+    generic: bool = True  # test unnamed features (tmopt.mismatch.generic) beside the catalogue
 
     def __post_init__(self) -> None:
         if not (0 < self.alpha < 1 and 0 < self.locate_alpha < 1):
@@ -129,8 +133,18 @@ class Diagnosis:
     refused: str | None = None
 
     @property
+    def effects(self) -> list[tuple[Evaluation, list[Evaluation]]]:
+        """Selected catalogue effects (named physics)."""
+        return [s for s in self.selected if s[0].candidate.effect != generic.GENERIC]
+
+    @property
+    def features(self) -> list[tuple[Evaluation, list[Evaluation]]]:
+        """Selected unnamed features (reported as unexplained, with what and where)."""
+        return [s for s in self.selected if s[0].candidate.effect == generic.GENERIC]
+
+    @property
     def unexplained(self) -> bool:
-        return self.refused is None and self.locations_after.any
+        return self.refused is None and (self.locations_after.any or bool(self.features))
 
     @property
     def mismatch_detected(self) -> bool | None:
@@ -400,6 +414,13 @@ def evaluate(data: Data, basis: np.ndarray, state: State, settings: Settings,
             dof = len(cand.columns)
             p = min(1.0, cand.trials * float(stats.chi2.sf(lam, dof)))
             out.append(Evaluation(cand, lam, dof, g.n, p))
+    if settings.generic:
+        g = groups["equation"]
+        for cand in generic.candidates(ctx):
+            lam = g.glr(cand.columns)
+            dof = len(cand.columns)
+            p = min(1.0, cand.trials * float(stats.chi2.sf(lam, dof)))
+            out.append(Evaluation(cand, lam, dof, g.n, p))
     for e, p in zip(out, holm([e.p_value for e in out])):
         e.p_holm = float(p)
     return out
@@ -614,7 +635,8 @@ def _take_best(data, basis, state: State, sig: list[Evaluation], exclude: set[st
     ``exclude``."""
     best = max(sig, key=lambda e: e.dbic)
     alts = [e for e in sig if e is not best and best.dbic - e.dbic < cal.AMBIGUOUS_DBIC]
-    if not EFFECTS[best.candidate.effect].repeatable:
+    model = EFFECTS.get(best.candidate.effect)  # None: an unnamed feature (repeatable)
+    if model is not None and not model.repeatable:
         exclude.add(best.candidate.key)
     return (best, alts), _add(data, basis, state, best, settings)
 

@@ -619,6 +619,8 @@ def _finish(plan: Plan, chans: dict[str, np.ndarray], state: dict[str, np.ndarra
             chans[name] = chans[name] + col[a]
     for o in plan.ooc:
         if o.spec.post is not None:
+            # the axis's white readout sigma [m] (a readout burst is a multiple of it)
+            o.params.setdefault("sigma", plan.cfg_sigmas["m1" if o.axis in AXES[:2] else "m2"])
             o.spec.post(o, chans, state)
     if not sc.reference:
         chans.pop("ref_x1", None)

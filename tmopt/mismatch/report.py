@@ -49,10 +49,37 @@ def _effect_entry(dg: Diagnosis, ev, alts) -> dict:
     }
 
 
+def _rivals(ev, alts, dg: Diagnosis | None = None) -> list:
+    """Near alternatives (within AMBIGUOUS_DBIC) of another name -- catalogue or unnamed --
+    and, with ``dg``, any unnamed feature selected on the same channel: that channel holds
+    structure the named effect does not explain (a linear drift beside a curvature, a
+    stiffness drift beside a stiffness step), so the name is not a confident one."""
+    out = [a for a in alts if a.candidate.effect != ev.candidate.effect]
+    if dg is not None:
+        out += [f for f, _ in dg.features if f.candidate.channel == ev.candidate.channel
+                and f not in out]  # fmt: skip
+    return out
+
+
+def _unexplained_at(dg: Diagnosis, rep: dict) -> dict:
+    """Where the unexplained part is: the unnamed features' channels, onsets and lines,
+    and what the final model still leaves located."""
+    loc = {k: list(v) for k, v in rep["locations_unexplained"].items()}
+    for f in rep["features"]:
+        if f["channel"] not in loc["channels"]:
+            loc["channels"].append(f["channel"])
+        p = f["parameters"]
+        if "t0_s" in p:
+            loc["time_s"].append([p["t0_s"], p["t0_s"]])
+        if "frequency_hz" in p:
+            loc["frequency_hz"].append([p["frequency_hz"], p["frequency_hz"]])
+    return loc
+
+
 def _not_identifiable(dg: Diagnosis) -> list[dict]:
     out = [dict(r) for r in dg.not_identifiable]
-    for ev, alts in dg.selected:
-        others = [a for a in alts if a.candidate.effect != ev.candidate.effect]
+    for ev, alts in dg.effects:
+        others = _rivals(ev, alts, dg)
         if others:
             out.append({
                 "name": ev.candidate.effect, "channel": ev.candidate.channel,
@@ -61,6 +88,16 @@ def _not_identifiable(dg: Diagnosis) -> list[dict]:
                 "needs": _NEEDS[ev.candidate.effect],
             })  # fmt: skip
     return out
+
+
+def _feature_entry(dg: Diagnosis, ev) -> dict:
+    """An unnamed feature: what (its words and searched parameters), where, how strong."""
+    cand = ev.candidate
+    return {"feature": cand.fixed.get("feature"), "channel": cand.channel,
+            "parameters": {k: v for k, v in cand.fixed.items() if k != "feature"},
+            "evidence": {"delta_bic": ev.dbic, "glr": ev.glr, "p_holm": ev.p_holm,
+                         "trials": cand.trials},
+            "description": cand.text}  # fmt: skip
 
 
 def _fmt_loc(loc: dict) -> str:
@@ -85,8 +122,14 @@ def conclusion(rep: dict) -> str:
     if rep["effects"]:
         words.append("mismatch explained by " + ", ".join(
             f"{e['name']} [{e['channel']}]" for e in rep["effects"]))  # fmt: skip
-    if rep["unexplained"]:
-        words.append("unexplained mismatch at " + _fmt_loc(rep["locations_unexplained"]))
+    for a in rep.get("ambiguous", []):
+        words.append("ambiguous: " + " or ".join(
+            [f"{a['name']} [{a['channel']}]"] + [f"{r['name']} [{r['channel']}]"
+                                                 for r in a["rivals"]]))  # fmt: skip
+    words += [f["description"] for f in rep.get("features", [])]
+    loc = rep["locations_unexplained"]
+    if loc["frequency_hz"] or loc["time_s"]:
+        words.append("unexplained mismatch at " + _fmt_loc(loc))
     return "; ".join(words)
 
 
@@ -119,7 +162,9 @@ def _refused_report(dg: Diagnosis) -> dict:
         "mismatch_detected": None, "unexplained": None,
         "locations": {"frequency_hz": [], "time_s": [], "channels": []},
         "locations_unexplained": {"frequency_hz": [], "time_s": [], "channels": []},
-        "effects": [], "not_identifiable": [], "notes": list(dg.data.notes),
+        "effects": [], "ambiguous": [], "features": [], "not_identifiable": [],
+        "unexplained_at": {"frequency_hz": [], "time_s": [], "channels": []},
+        "notes": list(dg.data.notes),
         "settings": _settings(dg),
     }  # fmt: skip
     rep["conclusion"] = conclusion(rep)
@@ -148,7 +193,13 @@ def build_report(dg: Diagnosis) -> dict:
         "unexplained": dg.unexplained,
         "locations": dg.locations.as_dict(),
         "locations_unexplained": dg.locations_after.as_dict(),
-        "effects": [_effect_entry(dg, ev, alts) for ev, alts in dg.selected],
+        "effects": [_effect_entry(dg, ev, alts) for ev, alts in dg.effects
+                    if not _rivals(ev, alts, dg)],
+        "ambiguous": [{**_effect_entry(dg, ev, alts),
+                       "rivals": [{"name": a.candidate.effect, "channel": a.candidate.channel,
+                                   "delta_bic": a.dbic} for a in _rivals(ev, alts, dg)]}
+                      for ev, alts in dg.effects if _rivals(ev, alts, dg)],
+        "features": [_feature_entry(dg, ev) for ev, _ in dg.features],
         "not_identifiable": _not_identifiable(dg),
         "fit": {"before": before, "after": after},
         "stiffness": {k: _stiff(s) for k, s in (("before", dg.before), ("after", dg.after))},
@@ -156,6 +207,7 @@ def build_report(dg: Diagnosis) -> dict:
         "settings": _settings(dg),
         "notes": list(dg.data.notes),
     }  # fmt: skip
+    rep["unexplained_at"] = _unexplained_at(dg, rep)
     rep["conclusion"] = conclusion(rep)
     return rep
 
