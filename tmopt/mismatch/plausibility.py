@@ -11,6 +11,8 @@ the noise levels:
   model needs Welch pieces and bands; the locate step needs windows);
 * **live channels**: no displacement, acceleration or force channel is constant (a dead
   sensor, a filler value, a noise-free simulation: nothing to test against);
+* **excitation**: some axis carries excitation lines (the identification needs them;
+  shuffled samples have none);
 * **force vs acceleration** (Eq. 10): in the f_B-free combinations the measured
   acceleration follows the commanded force with slope 1 (``acc - f = k x + f_D - P f_B +
   noise``); a slope measurably far from 1 (beyond any plausible gain error) means the
@@ -118,6 +120,25 @@ def check_live(data: Data) -> Check:
                      f"constant channel(s) {', '.join(dead)}: a dead sensor, a filler value or "
                      "a noise-free simulation leaves nothing to test against")  # fmt: skip
     return Check("live channels", "ok", "every channel varies")
+
+
+def check_excitation(data: Data) -> Check:
+    """At least one axis carries excitation lines (:meth:`Data.tones`: from the recorded
+    reference, else the readout).  The identification of Eq. 10 and every kinematic test
+    work at the excitation tones (Eq. 20's multi-sine); a record without a line has
+    nothing to identify with -- an unexcited record, or samples out of time order (a
+    shuffle spreads a line over the whole band)."""
+    found = {AXES[a]: data.tones(a) for a in range(4)}
+    excited = {k: v for k, v in found.items() if v}
+    if not excited:
+        return Check("excitation", "fail",
+                     "no excitation line on any axis (no periodogram peak >= 1e4 x its "
+                     "surroundings in the references or readouts): the identification needs "
+                     "an excited motion (Eq. 20); an unexcited record, or samples out of time "
+                     "order?")  # fmt: skip
+    return Check("excitation", "ok", "excited axes: " + ", ".join(
+        f"{k} ({', '.join(f'{t:.4g}' for t in v)} Hz)" for k, v in excited.items()),
+        {k: list(v) for k, v in excited.items()})  # fmt: skip
 
 
 def check_force_acc(data: Data) -> Check:
@@ -262,7 +283,8 @@ def check_controller(data: Data) -> Check:
 def precheck(data: Data) -> Verdict:
     """The checks of the module docstring, cheapest first; stops at the first refusal."""
     checks: list[Check] = []
-    for fn in (check_length, check_live, check_force_acc, check_kinematics, check_controller):
+    for fn in (check_length, check_live, check_excitation, check_force_acc, check_kinematics,
+               check_controller):
         c = fn(data)
         checks.append(c)
         if c.status == "fail":
