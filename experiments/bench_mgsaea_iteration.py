@@ -34,7 +34,7 @@ import numpy as np
 import torch
 
 from tmopt.algorithms.mgsaea import MGSAEAIPC
-from tmopt.problems.evaluator import Evaluator
+from tmopt.evaluation.evaluator import Evaluator
 from tmopt.problems.suites import PymooBenchmark
 from tmopt.surrogates.base import Surrogate
 

@@ -23,9 +23,9 @@ from pathlib import Path
 from omegaconf import OmegaConf
 
 from tmopt.algorithms.base import CHECKPOINT_FILE
-from tmopt.archive import read_archive
-from tmopt.build import build
-from tmopt.runner import ARCHIVE_FILE, run_optimisation
+from tmopt.evaluation.archive import read_archive
+from tmopt.run.build import build
+from tmopt.run.runner import ARCHIVE_FILE, run_optimisation
 
 
 def catch_up(run: Path, copy: Path, keep_checkpoint: bool) -> tuple[float, object]:

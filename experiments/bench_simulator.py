@@ -1,6 +1,7 @@
 """Throughput of the batched closed-loop simulator (FRBF-PID + RLS) vs a per-design Python loop.
 
 Usage: python experiments/bench_simulator.py [--batches 1 10 100 1000] [--record full]
+       [--controller frbf_pid|pid]
 
 Prints designs per second at each batch size for the full 1200 s / 10 Hz closed loop,
 the speed of the plain per-design reference loop (the same step functions run by the
@@ -65,10 +66,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--batches", type=int, nargs="+", default=[1, 10, 100, 1000])
     ap.add_argument("--record", choices=["full", "estimates"], default="full")
+    ap.add_argument("--controller", choices=["frbf_pid", "pid"], default="frbf_pid")
     ap.add_argument("--ref-designs", type=int, default=2)
     ap.add_argument("--ref-seconds", type=float, default=60.0)
     args = ap.parse_args()
-    cfg = SimulationConfig(record=args.record)
+    cfg = SimulationConfig(record=args.record, controller=args.controller)
     print(f"load average: {os.getloadavg()[0]:.2f}")
     print(f"cores: {os.cpu_count()}, run: {cfg.duration:g} s at {cfg.sample_rate:g} Hz "
           f"({cfg.n_steps} steps), {cfg.controller} + RLS, record={cfg.record}")

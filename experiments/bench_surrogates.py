@@ -243,11 +243,12 @@ def accuracy() -> None:
              ("Ackley [-0.5, 0.5]^10", Ackley(n_var=10), -0.5, 0.5),
              ("Rosenbrock [-2.048, 2.048]^10 (full)", Rosenbrock(n_var=10), -2.048, 2.048),
              ("Ackley [-32.768, 32.768]^10 (full)", Ackley(n_var=10), -32.768, 32.768)]
-    models = {"GP rbf": lambda: GPSurrogate(), "GP matern52": lambda: GPSurrogate("matern52"),
+    models = {"GP rbf": lambda: GPSurrogate(),
+              "GP matern52": lambda: GPSurrogate(kernel="matern52"),
               "GP rbf floor 1e-4 (BoTorch's)": lambda: GPSurrogate(noise_floor=1e-4),
               "RBF cubic/all": lambda: RBFSurrogate(),
-              "RBF gaussian/all": lambda: RBFSurrogate("gaussian"),
-              "RBF multiquadric/all": lambda: RBFSurrogate("multiquadric"),
+              "RBF gaussian/all": lambda: RBFSurrogate(kernel="gaussian"),
+              "RBF multiquadric/all": lambda: RBFSurrogate(kernel="multiquadric"),
               "RBF cubic/kmeans": lambda: RBFSurrogate(centres="kmeans")}
     print("| function, box | n | " + " | ".join(models) + " |")
     print("|---|---|" + "---|" * len(models))

@@ -12,7 +12,7 @@ then in batches of 100 children, not steady state: see --cmoead-batch). Seeds
 markers) is then replaced by the collected tables, the commands and the wall times,
 and the hand-written reading around it is kept.
 
-Re-running the script skips finished runs and resumes unfinished ones.
+Re-running the script launches only the unfinished runs, which resume.
 """
 
 from __future__ import annotations
@@ -164,7 +164,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     timings = [] if args.collect_only else run_sweeps(cmds)
     sweep_dir = REPO / "multirun" / args.name
-    from tmopt.collect import collect
+    from tmopt.reporting.collect import collect
 
     collected = sweep_dir / "collected"
     collect(sweep_dir, collected, reference="mgsaea_ipc", fig10=False)

@@ -1,6 +1,6 @@
 """Fig. 7: identification performance over single-frequency motion states of TM1 x TM2.
 
-Usage: python experiments/fig7_single_frequency_grid.py [--quick] [--out DIR] [--seed 0]
+Usage: python experiments/fig7_single_frequency_grid.py [--quick] [--out DIR] [--seeds 10]
 
 Each TM's state is one sinusoid with amplitude {1e-6, 1e-5, 1e-4} m, angular frequency
 2 pi/{300, 600, 900, 1200} rad/s and phase {0, pi/2, pi}: 36 states per TM, 36 x 36 =
@@ -8,7 +8,8 @@ Each TM's state is one sinusoid with amplitude {1e-6, 1e-5, 1e-4} m, angular fre
 ``s = (a-1)*12 + (b-1)*3 + c`` (a amplitude, b frequency, c phase; the paper's printed
 formula ``(a-1)*3 + (b-1)*4 + c`` is not one-to-one and is read as this lexicographic
 order).  Convergence time and accuracy of k1xx (TM1) and k2xx (TM2) are written as
-36 x 36 maps (row = TM1 state, column = TM2 state) with the trend summaries printed.
+36 x 36 maps (row = TM1 state, column = TM2 state; the median over ``--seeds`` noise
+seeds) and the trend summaries are printed as median (min-max) over the seeds.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from scipy.stats import spearmanr  # noqa: E402
 
 from tmopt.physics.excitation import MultiSine  # noqa: E402
 from tmopt.physics.objectives import evaluate  # noqa: E402
-from tmopt.physics.report import output_dir, write_rows  # noqa: E402
+from tmopt.physics.report import fmt_stats, output_dir, write_rows  # noqa: E402
 from tmopt.physics.simulator import SimulationConfig, simulate  # noqa: E402
 
 AMPLITUDES = (1e-6, 1e-5, 1e-4)
@@ -62,34 +63,36 @@ def run_grid(st, seed: int, chunk: int = 216):
     return pairs, {k: v.reshape(s, s) for k, v in maps.items()}
 
 
-def trends(st, maps, tm: int) -> None:
-    """Print the paper's qualitative claims as numbers for TM ``tm`` (1 or 2)."""
+def trends(st, maps, tm: int) -> dict[str, float]:
+    """The paper's qualitative claims as numbers for TM ``tm`` (1 or 2), one seed."""
     t, a = maps[f"t{tm}"], maps[f"a{tm}"]
     own = 0 if tm == 1 else 1  # axis of the identified TM's own state
     arr = np.array(st)
+    out = {}
     for name, col, values in (("amplitude", 0, AMPLITUDES),
                               ("period", 1, [2 * math.pi / p for p in PERIODS])):  # fmt: skip
-        parts = []
         for v in values:
             sel = np.isclose(arr[:, col], v)
-            tt = t[sel].mean() if own == 0 else t[:, sel].mean()
-            aa = np.exp(np.log(a[sel] if own == 0 else a[:, sel]).mean())
-            label = f"{v:g}" if col == 0 else f"{2 * math.pi / v:g}s"
-            parts.append(f"{label}: T={tt:.0f}s acc={aa:.2e}")
-        print(f"  TM{tm} own {name:9s} -> " + "; ".join(parts))
+            label = f"{v:g} m" if col == 0 else f"{2 * math.pi / v:g} s"
+            out[f"own {name} {label}: mean time s"] = t[sel].mean() if own == 0 \
+                else t[:, sel].mean()
+            out[f"own {name} {label}: geo-mean accuracy"] = np.exp(np.log(
+                a[sel] if own == 0 else a[:, sel]).mean())
     diag = np.diag(a)
     near = np.array([np.exp(np.log(np.r_[a[i, max(i - 1, 0):i], a[i, i + 1:i + 2]]).mean())
                      for i in range(len(st))])  # fmt: skip
-    print(f"  TM{tm} accuracy on the diagonal (same state) / its row neighbours: geometric "
-          f"mean ratio {np.exp(np.mean(np.log(diag / near))):.2f}")  # fmt: skip
-    rho = spearmanr(t.ravel(), a.ravel()).statistic
-    print(f"  TM{tm} Spearman(convergence time, accuracy) = {rho:.2f}; "
-          f"converged (< 1200 s): {np.mean(t < 1200):.0%}; "
-          f"time range {t.min():.0f}..{t.max():.0f} s, accuracy {a.min():.2e}..{a.max():.2e}")
+    out["diagonal / row-neighbour accuracy (geo-mean ratio)"] = np.exp(np.mean(np.log(
+        diag / near)))
+    out["Spearman(time, accuracy)"] = spearmanr(t.ravel(), a.ravel()).statistic
+    out["share converged (< 1200 s)"] = np.mean(t < 1200)
+    out["fastest time s"] = t.min()
+    out["best accuracy"] = a.min()
+    return {k: float(v) for k, v in out.items()}
 
 
-def plot(maps, path, n) -> None:
+def plot(maps, path, n, seeds: int) -> None:
     fig, axes = plt.subplots(2, 2, figsize=(11, 9))
+    fig.suptitle(f"Fig. 7 reproduction: median over {seeds} noise seeds")
     for row, tm in enumerate((1, 2)):
         for col, (key, label) in enumerate(((f"t{tm}", "convergence time [s]"),
                                             (f"a{tm}", "log10 convergence accuracy"))):  # fmt: skip
@@ -105,29 +108,41 @@ def plot(maps, path, n) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description="Fig. 7 reproduction")
-    ap.add_argument("--quick", action="store_true", help="phase 0 only (144 runs)")
+    ap.add_argument("--quick", action="store_true", help="phase 0 only (144 runs per seed)")
     ap.add_argument("--out", default=None)
-    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--seeds", type=int, default=10)
     args = ap.parse_args()
     out = output_dir("fig7_single_frequency_grid" + ("_quick" if args.quick else ""), args.out)
     st = states(args.quick)
     t0 = time.perf_counter()
-    pairs, maps = run_grid(st, args.seed)
-    print(f"{len(pairs)} closed-loop runs in {time.perf_counter() - t0:.1f} s, "
-          f"diverged: {int(maps['div'].sum())}")
+    per_seed, summary = [], {1: [], 2: []}
+    for seed in range(args.seeds):
+        pairs, maps = run_grid(st, seed)
+        per_seed.append(maps)
+        for tm in (1, 2):
+            summary[tm].append(trends(st, maps, tm))
+    diverged = int(sum(m["div"].sum() for m in per_seed))
+    print(f"{len(pairs)} closed-loop runs x {args.seeds} seeds in "
+          f"{time.perf_counter() - t0:.1f} s, diverged: {diverged}")
+    med = {k: np.median([m[k] for m in per_seed], axis=0) for k in per_seed[0]}
     rows = []
     for i, j in pairs:
         rows.append({"tm1_state": i + 1, "tm2_state": j + 1,
                      "A1": st[i][0], "w1": st[i][1], "phase1": st[i][2],
                      "A2": st[j][0], "w2": st[j][1], "phase2": st[j][2],
-                     "k1xx_time_s": maps["t1"][i, j], "k1xx_accuracy": maps["a1"][i, j],
-                     "k1xx_final": maps["f1"][i, j], "k2xx_time_s": maps["t2"][i, j],
-                     "k2xx_accuracy": maps["a2"][i, j],
-                     "k2xx_final": maps["f2"][i, j]})  # fmt: skip
-    write_rows(out / "fig7_grid.csv", rows)
-    plot(maps, out / "fig7_single_frequency_grid.png", len(st))
+                     **{f"k{tm}xx_{name}_median": med[f"{key}{tm}"][i, j]
+                        for tm in (1, 2)
+                        for key, name in (("t", "time_s"), ("a", "accuracy"),
+                                          ("f", "final"))}})  # fmt: skip
+    write_rows(out / "fig7_grid_median.csv", rows)
+    seed_rows = [{"tm": tm, "seed": s, **summary[tm][s]} for tm in (1, 2)
+                 for s in range(args.seeds)]  # fmt: skip
+    write_rows(out / "fig7_trends_seeds.csv", seed_rows)
+    plot(med, out / "fig7_single_frequency_grid.png", len(st), args.seeds)
     for tm in (1, 2):
-        trends(st, maps, tm)
+        print(f"k{tm}xx, median (min-max) over {args.seeds} seeds:")
+        for key in summary[tm][0]:
+            print(f"  {key}: {fmt_stats([d[key] for d in summary[tm]])}")
     print(f"wrote {out}")
 
 

@@ -23,7 +23,7 @@ def one_run(args: tuple[str, int, int, int]) -> tuple[str, int, float, float, fl
 
     from tmopt.algorithms.qlognehvi import QLogNEHVI
     from tmopt.problems.suites import PymooBenchmark
-    from tmopt.runner import run_optimisation
+    from tmopt.run.runner import run_optimisation
 
     problem = PymooBenchmark("mw3", n_var=n_var)
     res = run_optimisation(problem, QLogNEHVI(ref_point=rule), budget=budget, seed=seed,

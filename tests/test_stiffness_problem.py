@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
+from tmopt.evaluation.evaluator import Evaluator
 from tmopt.physics import objectives as phys_obj
 from tmopt.physics.excitation import MultiSine
 from tmopt.physics.simulator import SimulationConfig, simulate
-from tmopt.problems.evaluator import Evaluator
 from tmopt.problems.stiffness import StiffnessProblem
 
 SHORT = {"duration": 120.0}
@@ -51,14 +51,52 @@ def test_variable_layout_and_bounds():
         2 * math.pi / 100)
 
 
-def test_constraints_are_eq20_normalised_by_their_limits():
-    p = StiffnessProblem(scheme="B", n_freq=1, **SHORT)
+def test_reference_constraints_are_eq20_on_the_reference_normalised_by_their_limits():
+    p = StiffnessProblem(scheme="B", n_freq=1, constraints="reference", **SHORT)
     x = np.array([[4e-5, 0.02, 0.0, 1e-4, 0.01, 0.0]])
     g = p.constraints(x)[0]
+    np.testing.assert_array_equal(g, p.reference_constraints(x)[0])
     assert g[0] == pytest.approx(4e-5 * 0.02**2 / (0.5 * 1e-7) - 1)
     assert g[2] == pytest.approx(1e-4 * 0.01**2 / (0.5 * 1e-7) - 1)
     # max |x_ref| of A sin(w t) over 120 s sampled at 10 Hz: the peak is reached
     assert g[1] == pytest.approx(4e-5 / (0.1 * 4e-3) - 1, rel=1e-6)
+
+
+def test_constraints_are_eq20_on_the_simulated_motion_and_force():
+    """Default: the realised run; the start-up transient can take the TM past the reference
+    and the command past the reference's sum A w^2."""
+    x = np.array([[2e-4, 2 * math.pi / 800, 0.0, 1e-5, 2 * math.pi / 300, 0.0]])
+    cfg = dict(scheme="B", n_freq=1, duration=300.0)
+    p = StiffnessProblem(**cfg, ramp_in=0.0)
+    assert p.constraint_mode == "realised"
+    res = p.simulate_designs(x)
+    g = p.constraints(x)[0]
+    assert g[0] == pytest.approx(res.max_abs_command[0, 0] / (0.5 * 1e-7) - 1)
+    assert g[1] == pytest.approx(res.max_abs_position[0, 0] / (0.1 * 4e-3) - 1)
+    assert g[3] == pytest.approx(res.max_abs_position[0, 1] / (0.1 * 4e-3) - 1)
+    ref = p.reference_constraints(x)[0]
+    # this design is feasible on paper (A w^2 = 1.2e-8 < 5e-8; 0.2 mm < 0.4 mm) but its
+    # abrupt start (1.6e-6 m/s) saturates the actuator (|u| = F_max) and overshoots
+    assert ref[0] < 0 and g[0] == pytest.approx(1.0) and g[1] > ref[1]
+    assert np.array_equal(p.evaluate(x, return_as_dictionary=True)["G"][0], g)
+    # the ramp-in (default 90 s) removes the overshoot and eases the start-up force
+    ramped = StiffnessProblem(**cfg).constraints(x)[0]
+    assert ramped[1] == pytest.approx(ref[1], abs=1e-3) and ramped[0] < g[0]
+
+
+def test_problem_options_reach_the_simulator_and_bad_ones_are_one_line():
+    p = StiffnessProblem(scheme="C", rls_columns="all", y_axes="round1", jacobian="online",
+                         ramp_in=30.0, **SHORT)  # fmt: skip
+    cfg = p.config
+    assert cfg.rls_columns == ("k1xx", "k2xx", "k1yy", "k2yy", "R") and cfg.ramp_in == 30.0
+    assert cfg.fb_bias == (1e-10, 1e-10) and cfg.control.jacobian == "online"
+    assert StiffnessProblem(**SHORT).config.rls_columns == ("k1xx", "k2xx", "R")
+    with pytest.raises(ValueError, match="rls_columns must include k2xx"):
+        StiffnessProblem(scheme="C", rls_columns=["k1xx", "R"])
+    with pytest.raises(ValueError, match="problem stiffness: y_axes must be one of"):
+        StiffnessProblem(y_axes="lisa")
+    with pytest.raises(ValueError, match="constraints must be one of"):
+        StiffnessProblem(constraints="none")
 
 
 def test_scheme_a_holds_tm2_at_nominal():
@@ -71,7 +109,7 @@ def test_scheme_a_holds_tm2_at_nominal():
 def test_objectives_equal_the_simulator_objectives():
     p = StiffnessProblem(scheme="C", n_freq=1, duration=300.0, noise_seed=3)
     F = p.evaluate(np.array([FIG6]), return_as_dictionary=True)["F"][0]
-    cfg = SimulationConfig(duration=300.0, record="estimates")
+    cfg = SimulationConfig(duration=300.0, record="estimates")  # the same defaults
     res = simulate(MultiSine(5e-5, 2 * math.pi / 300), MultiSine(3e-5, 2 * math.pi / 500),
                    cfg, seed=3)
     for j, idx in enumerate((0, 1)):
@@ -101,7 +139,8 @@ def test_a_diverging_design_is_a_failure_with_the_simulators_reason():
 def test_identification_report_gives_table3_numbers():
     p = StiffnessProblem(scheme="B", n_freq=1, duration=600.0)
     rep = p.identification_report(np.array(FIG6))
-    for key in ("final_accuracy_TM1", "M_TM1", "M_TM1@7e-11", "M_TM1@5e-11"):
+    for key in ("final_accuracy_TM1", "M_TM1", "M_TM1@7e-11", "M_TM1@5e-11",
+                "max_abs_x_TM1", "max_abs_force_TM2", "max_tracking_error_TM1"):
         assert np.isfinite(rep[key])
     assert rep["M_TM1"] == pytest.approx(rep["convergence_time_TM1"] / 60
                                          + 1e10 * rep["convergence_accuracy_TM1"])

@@ -1,6 +1,6 @@
-"""``python -m tmopt``: see :mod:`tmopt.cli`."""
+"""``python -m tmopt``: see :mod:`tmopt.run.cli`."""
 
-from tmopt.cli import main
+from tmopt.run.cli import main
 
 if __name__ == "__main__":
     main()

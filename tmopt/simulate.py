@@ -2,63 +2,117 @@
 
 Simulates the two test masses following a reference motion (the paper's Fig. 6 motion
 by default, or any excitation spec), prints the identification numbers of k1xx and k2xx
-(Eqs. 18, 19, 29 and the final error), and writes the run as a recording in the
-standard format (docs/recording-format.md) plus a plot of the motion and the
-identification curves. The recording can go straight into ``python -m tmopt.mismatch``.
+(Eqs. 18, 19, 29 and the final error), the realised motion and force of each test mass
+with Eq. 20's constraints on them, and writes the run as a recording in the standard
+format (docs/recording-format.md) plus a plot of the motion and the identification
+curves; ``--json FILE`` writes every printed number, per test mass. The recording can go
+straight into ``python -m tmopt.mismatch``.
 
-Excitation specs, settings and the sample-rate rule are the scenario's
+Excitation specs, settings (the physics options ``--ramp-in``, ``--rls-columns``,
+``--y-axes``, ``--jacobian`` included) and the sample-rate rule are the scenario's
 (:mod:`tmopt.physics.scenario`), shared with the recording generator and the stiffness
-problem, so a simulation here and a clean control there are the same run.  This command
-is physics only: it imports nothing of the mismatch tool.
+problem, so a simulation here and a clean control there are the same run but for the
+spacecraft acceleration every generated recording carries
+(``tmopt.mismatch.generate.SPACECRAFT_ACCELERATION``).  This command is physics only: it
+imports nothing of the mismatch tool.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from collections.abc import Sequence
+from dataclasses import asdict, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from tmopt.physics import objectives
+from tmopt.physics.control import JACOBIANS
 from tmopt.physics.geometry import Geometry
 from tmopt.physics.recording import recording_from_simulation, write_recording
-from tmopt.physics.scenario import Settings, excitation, simulation_config
-from tmopt.physics.simulator import SimulationResult, simulate
+from tmopt.physics.scenario import Y_AXES, Settings, excitation, simulation_config
+from tmopt.physics.simulator import RLS_COLUMN_SETS, SimulationConfig, SimulationResult, simulate
 
 PARAMETERS = {"k1xx": 0, "k2xx": 1}
+#: Rows of the printed table and keys of the JSON, per test mass: (key, unit, format).
+ROWS = (("convergence_time", "s", ".4g"), ("convergence_accuracy", "s^-2", ".4g"),
+        ("final_accuracy", "s^-2", ".4g"), ("M", "", ".4g"),
+        ("max_abs_x", "m", ".4g"), ("max_abs_force", "m s^-2", ".4g"),
+        ("max_tracking_error", "m", ".3g"), ("steady_tracking_error", "m", ".3g"),
+        ("eq20_force", "", ".3f"), ("eq20_motion", "", ".3f"))  # fmt: skip
 
 
-def run(settings: Settings, seed: int = 0) -> SimulationResult:
-    """Simulate ``settings`` (excitation, duration, rate, noise, controller, truths)."""
+def config(settings: Settings) -> SimulationConfig:
+    """The simulator's configuration of ``settings``: the scenario's
+    (:func:`tmopt.physics.scenario.simulation_config`), nominal geometry."""
+    return simulation_config(settings, Geometry())
+
+
+def run(settings: Settings, seed: int = 0, **options: Any) -> SimulationResult:
+    """Simulate ``settings`` (excitation, duration, rate, noise, controller, truths and the
+    physics options ``ramp_in``, ``rls_columns``, ``y_axes``, ``jacobian``); ``options``
+    replace fields of ``settings``."""
+    settings = replace(settings, **options)
     ref1, ref2, _ = excitation(settings.excitation, settings.duration, settings.sample_rate)
-    cfg = simulation_config(settings, Geometry())
-    return simulate(ref1[None], ref2[None], cfg, seed=seed)
+    return simulate(ref1[None], ref2[None], config(settings), seed=seed)
 
 
 def summary(result: SimulationResult, eps: float = 1e-10) -> dict[str, dict[str, float]]:
-    """Eqs. 18, 19, 29 and the final error for k1xx and k2xx."""
+    """Per test mass: Eqs. 18, 19, 29 and the final error of its sensitive-axis stiffness,
+    and the realised run -- largest displacement and commanded force, tracking errors and
+    Eq. 20 on them (``eq20_*`` = value / limit - 1, feasible <= 0)."""
+    cfg = result.config
+    g = objectives.eq20_realised(result)[0]
     out = {}
-    for name, idx in PARAMETERS.items():
+    for tm, (name, idx) in enumerate(PARAMETERS.items()):
         obj = objectives.evaluate(result, idx=idx, eps=eps)
-        out[name] = {k: float(obj[k][0]) for k in ("convergence_time", "convergence_accuracy",
-                                                   "final_accuracy", "M")}
+        row = {"parameter": name}
+        row.update({k: float(obj[k][0]) for k in ("convergence_time", "convergence_accuracy",
+                                                  "final_accuracy", "M")})  # fmt: skip
+        row["max_abs_x"] = float(result.max_abs_position[0, tm])
+        row["max_abs_force"] = float(result.max_abs_command[0, tm])
+        row["max_tracking_error"] = float(result.max_tracking_error[0, tm])
+        row["steady_tracking_error"] = float(result.steady_tracking_error[0, tm])
+        row["eq20_force"] = float(g[2 * tm] / (cfg.alpha1 * cfg.f_max))
+        row["eq20_motion"] = float(g[2 * tm + 1] / (cfg.alpha2 * cfg.gap))
+        row["eq20"] = {"force": row["eq20_force"], "motion": row["eq20_motion"],
+                       "force_limit": cfg.alpha1 * cfg.f_max,
+                       "motion_limit": cfg.alpha2 * cfg.gap,
+                       "satisfied": bool(max(g[2 * tm], g[2 * tm + 1]) <= 0)}  # fmt: skip
+        out[f"TM{tm + 1}"] = row
     return out
 
 
 def table(result: SimulationResult, numbers: dict) -> str:
-    rows = ["| quantity | k1xx | k2xx |", "|---|---|---|"]
-    for key, unit in (("convergence_time", "s"), ("convergence_accuracy", "s^-2"),
-                      ("final_accuracy", "s^-2"), ("M", "")):
-        rows.append(f"| {key} {unit} | {numbers['k1xx'][key]:.4g} | {numbers['k2xx'][key]:.4g} |")
-    err = result.max_tracking_error[0]
-    steady = result.steady_tracking_error[0]
-    rows.append(f"| max tracking error TM1 / TM2 m | {err[0]:.3g} | {err[1]:.3g} |")
-    rows.append(f"| steady tracking error TM1 / TM2 m | {steady[0]:.3g} | {steady[1]:.3g} |")
+    rows = ["| quantity | TM1 (k1xx) | TM2 (k2xx) |", "|---|---|---|"]
+    for key, unit, fmt in ROWS:
+        a, b = numbers["TM1"][key], numbers["TM2"][key]
+        rows.append(f"| {key} {unit} | {a:{fmt}} | {b:{fmt}} |")
+    rows.append(f"| Eq. 20 satisfied | {numbers['TM1']['eq20']['satisfied']} | "
+                f"{numbers['TM2']['eq20']['satisfied']} |")  # fmt: skip
     if result.diverged[0]:
         rows.append(f"\nthe closed loop diverged: {result.reason[0]}")
     return "\n".join(rows)
+
+
+def json_report(result: SimulationResult, numbers: dict, settings: Settings, seed: int,
+                files: dict[str, str]) -> dict:  # fmt: skip
+    """Everything the command prints, plus the settings that produced it."""
+    cfg = result.config
+    return {
+        "settings": {**asdict(settings), "seed": seed, "controller": cfg.controller,
+                     "ramp_in": cfg.ramp_in, "rls_columns": list(cfg.rls_columns),
+                     "jacobian": cfg.control.jacobian, "fb_bias": list(cfg.fb_bias),
+                     "fb_sigma": cfg.fb_sigma, "y_gains": list(cfg.control.y_gains),
+                     "y_derivative_filter": cfg.control.y_derivative_filter},
+        **numbers,
+        "diverged": bool(result.diverged[0]),
+        "reason": result.reason[0] or None,
+        **files,
+    }  # fmt: skip
 
 
 def plot(result: SimulationResult, path: Path) -> None:
@@ -102,8 +156,18 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--noise-scale", type=float, default=d.noise_scale,
                    help="multiplies every Table 1 noise")
     p.add_argument("--seed", type=int, default=0, help="noise realisation")
+    p.add_argument("--ramp-in", type=float, default=d.ramp_in,
+                   help="seconds over which the references ramp in (0: none)")
+    p.add_argument("--rls-columns", default=d.rls_columns, choices=sorted(RLS_COLUMN_SETS),
+                   help="theta columns the RLS identifies")
+    p.add_argument("--y-axes", default=d.y_axes, choices=sorted(Y_AXES),
+                   help="non-sensitive axes and spacecraft acceleration setting")
+    p.add_argument("--jacobian", default=d.jacobian, choices=list(JACOBIANS),
+                   help="plant-Jacobian sign of the FRBF-PID's learning law")
     p.add_argument("--out", default="simulation.h5",
                    help="recording to write (.h5 or .csv + .json sidecar); a PNG goes beside it")
+    p.add_argument("--json", default=None, metavar="FILE",
+                   help="also write every printed number (per test mass) to this JSON file")
     return p
 
 
@@ -112,7 +176,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         settings = Settings(duration=args.duration, sample_rate=args.sample_rate,
                             excitation=args.excitation, noise_scale=args.noise_scale,
-                            controller=args.controller,
+                            controller=args.controller, ramp_in=args.ramp_in,
+                            rls_columns=args.rls_columns, y_axes=args.y_axes,
+                            jacobian=args.jacobian,
                             description=f"tmopt.simulate {args.excitation}")
         if args.seed < 0:
             raise ValueError(f"seed must be an integer >= 0, got {args.seed}")
@@ -124,8 +190,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     out.parent.mkdir(parents=True, exist_ok=True)
     write_recording(recording_from_simulation(result, 0, description=settings.description), out)
     plot(result, out.with_suffix(".png"))
-    print(table(result, summary(result)))
+    numbers = summary(result)
+    print(table(result, numbers))
+    files = {"recording": str(out), "plot": str(out.with_suffix(".png"))}
     print(f"\nrecording: {out}\nplot: {out.with_suffix('.png')}")
+    if args.json:
+        path = Path(args.json)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(json_report(result, numbers, settings, args.seed, files),
+                                   indent=2) + "\n")  # fmt: skip
+        print(f"json: {path}")
     return 0
 
 

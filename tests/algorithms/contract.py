@@ -10,9 +10,10 @@ from pathlib import Path
 import numpy as np
 from omegaconf import OmegaConf
 
-from tmopt.config import check_node
-from tmopt.problems.evaluator import Evaluator
-from tmopt.runner import run_optimisation
+from tmopt.evaluation.evaluator import Evaluator
+from tmopt.run.cli import option_config
+from tmopt.run.config import check_node
+from tmopt.run.runner import run_optimisation
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -45,7 +46,7 @@ def assert_seed_decides_the_archive(make, problem, budget: int) -> None:
 def algorithm_from_yaml(name: str, **extra):
     """The algorithm its ``conf/algorithm/<name>.yaml`` builds (keys checked against
     the constructor's signature), with ``extra`` keyword arguments."""
-    node = OmegaConf.load(REPO / "conf" / "algorithm" / f"{name}.yaml")
+    node = option_config("algorithm", name)
     cls = check_node("algorithm", node, name)
     kwargs = {k: v for k, v in OmegaConf.to_container(node).items() if not k.startswith("_")}
     alg = cls(**kwargs, **extra)

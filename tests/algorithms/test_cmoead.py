@@ -8,7 +8,7 @@ from pymoo.core.population import Population
 
 from tmopt.algorithms.base import AlgorithmConfigError
 from tmopt.algorithms.cmoead import CMOEAD, ConstrainedMOEAD
-from tmopt.problems.evaluator import Evaluator
+from tmopt.evaluation.evaluator import Evaluator
 from tmopt.problems.suites import SUITE_PROBLEMS, PymooBenchmark
 
 from .contract import (
@@ -23,7 +23,8 @@ from .contract import (
 def moead_with(F, CV, max_replacements=4):
     """A ConstrainedMOEAD over 4 weight vectors whose population has the given values."""
     W = np.array([[1.0, 0.0], [2 / 3, 1 / 3], [1 / 3, 2 / 3], [0.0, 1.0]])
-    alg = ConstrainedMOEAD(W, n_neighbors=4, max_replacements=max_replacements)
+    alg = ConstrainedMOEAD(W, n_neighbors=4, max_replacements=max_replacements, theta=5.0,
+                           batch_size=1, prob_neighbor_mating=0.9)
     alg.pop = Population.new("X", np.zeros((4, 1)), "F", np.asarray(F, float),
                              "CV", np.asarray(CV, float).reshape(-1, 1))
     alg.ideal = np.zeros(2)

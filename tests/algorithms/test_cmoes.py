@@ -10,10 +10,11 @@ from pymoo.core.problem import Problem
 from pymoo.operators.survival.rank_and_crowding import RankAndCrowding
 from pymoo.problems.static import StaticProblem
 
-from tmopt.algorithms._evolution import de_offspring, lexicographic_rank, nsga2_selection
 from tmopt.algorithms.base import AlgorithmConfigError
 from tmopt.algorithms.cmoes import CMOES, _Set, even_search, promising
-from tmopt.problems.evaluator import Evaluator
+from tmopt.algorithms.operators.survival import lexicographic_rank, nsga2_selection
+from tmopt.algorithms.operators.variation import de_offspring
+from tmopt.evaluation.evaluator import Evaluator
 from tmopt.problems.suites import SUITE_PROBLEMS, PymooBenchmark
 
 from .contract import (

@@ -80,10 +80,10 @@ def test_mw3_budget_2000_two_stages_reach_feasibility():
     assert res.metrics["igd"] < 1.0
 
 
-def test_archive_holds_no_copies_and_prefers_feasible():
+def test_elite_set_holds_no_copies_and_prefers_feasible():
     alg = CTSEA(pop_size=20)
     run(alg, PymooBenchmark("mw3", n_var=6), budget=300)
-    assert len(np.unique(alg.archive["X"], axis=0)) == len(alg.archive["X"])
+    assert len(np.unique(alg.elite["X"], axis=0)) == len(alg.elite["X"])
     assert len(alg.pop["X"]) == 20
 
 

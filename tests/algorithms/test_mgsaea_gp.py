@@ -17,7 +17,7 @@ import pytest
 
 from tmopt.algorithms.mgsaea import MGSAEAIPC
 from tmopt.problems.suites import PymooBenchmark
-from tmopt.runner import run_optimisation
+from tmopt.run.runner import run_optimisation
 
 pytest.importorskip("tmopt.surrogates.gp")
 REPO = Path(__file__).resolve().parents[2]
@@ -31,7 +31,7 @@ def test_ipc_with_default_gp_on_mw3_n10_budget_150_reaches_feasibility():
     assert len(res.archive) == 150
     assert res.metrics["feasible_ratio"] > 0
     assert len(np.unique(res.archive.X, axis=0)) == 150
-    assert alg.final_solution()["feasible"]
+    assert res.metrics["chosen"]["feasible"]
 
 
 @pytest.mark.skipif(not (REPO / "conf" / "surrogate" / "gp.yaml").exists(),

@@ -8,9 +8,9 @@ from scipy.stats import qmc
 
 from tmopt.algorithms.base import AlgorithmConfigError
 from tmopt.algorithms.qlognehvi import QLogNEHVI, reference_nadir
-from tmopt.problems.evaluator import EvaluatedBatch, Evaluator
+from tmopt.evaluation.evaluator import EvaluatedBatch, Evaluator
 from tmopt.problems.suites import SUITE_PROBLEMS, PymooBenchmark
-from tmopt.runner import run_optimisation
+from tmopt.run.runner import run_optimisation
 
 from .contract import algorithm_from_yaml, cli_metrics, drive_to_budget, run
 
@@ -243,7 +243,7 @@ def test_a_resume_takes_archived_designs_and_checkpointed_gps_and_ends_identical
 
 def test_a_run_killed_between_its_fit_and_the_evaluations_resumes_identical(
         tmp_path, monkeypatch, whole):
-    from tmopt.problems.evaluator import Evaluator
+    from tmopt.evaluation.evaluator import Evaluator
     from tmopt.surrogates.gp import GPSurrogate
 
     real = Evaluator.evaluate
@@ -313,7 +313,7 @@ def test_max_baseline_caps_the_designs_the_acquisition_integrates_over(monkeypat
 def test_max_baseline_left_at_null_keeps_the_hash_of_configs_without_it():
     from omegaconf import OmegaConf
 
-    from tmopt.config import config_hash
+    from tmopt.run.config import config_hash
 
     base = {"seed": 0, "budget": 697, "problem": {"_target_": "x.Problem"},
             "algorithm": {"_target_": "tmopt.algorithms.qlognehvi.QLogNEHVI", "q": 5}}

@@ -39,7 +39,9 @@ SETTINGS = Settings()
 
 @pytest.fixture(scope="module")
 def clean():
-    res = simulate(REF1, REF2, SimulationConfig(duration=600.0), seed=11)
+    # the round-one spacecraft acceleration: the geometry error acts through f_B
+    cfg = SimulationConfig(duration=600.0, fb_bias=(1e-10, 1e-10), fb_sigma=1e-10)
+    res = simulate(REF1, REF2, cfg, seed=11)
     return data_from_result(res)
 
 

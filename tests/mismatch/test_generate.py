@@ -226,7 +226,9 @@ def test_noise_scale_scales_the_noise():
      "option 'source'"),
     ([Injection("colored_noise", 1e-12, options={"exponent": 7})], {}, "option 'exponent'"),
     ([("glitch", 1e-10), ("glitch", 2e-10, "x1")], {}, "same effect twice"),
-    ([], {"sample_rate": 0.005, "duration": 20000.0}, "Nyquist"),
+    ([], {"sample_rate": 1.0, "duration": 200.0, "excitation": "multisine:1e-9@1.5;1e-9@300"},
+     "Nyquist"),
+    ([], {"sample_rate": 0.5, "duration": 2000.0}, r"sample_rate must be finite and in \[1, inf\)"),
     ([], {"noise_scale": -1.0}, "noise_scale"),
     ([], {"duration": 2.0}, "64 samples"),
 ])  # fmt: skip

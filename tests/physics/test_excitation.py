@@ -47,3 +47,19 @@ def test_shapes_broadcast_and_helpers():
 def test_bad_parameters_raise_value_error_naming_them(kwargs, match):
     with pytest.raises(ValueError, match=match):
         MultiSine(**kwargs)
+
+
+def test_ramp_window_starts_smoothly_and_the_simulator_tracks_the_ramped_reference():
+    from tmopt.physics.excitation import ramp_window
+    from tmopt.physics.simulator import SimulationConfig, simulate
+
+    t = sample_times(200.0, 10.0)
+    w = ramp_window(t, 90.0)
+    assert w[0] == 0.0 and np.all(w[t >= 90.0] == 1.0) and np.all(np.diff(w) >= 0)
+    assert w[1] - w[0] < 1e-5  # zero slope at the start
+    assert np.all(ramp_window(t, 0.0) == 1.0)
+    ref = MultiSine(5e-5, 2 * math.pi / 300)
+    res = simulate(ref, ref, SimulationConfig(duration=200.0, ramp_in=90.0))
+    np.testing.assert_array_equal(res.ref_x1[0], ref.evaluate(t)[0] * w)
+    with pytest.raises(ValueError, match="ramp_in"):
+        SimulationConfig(ramp_in=-1.0)

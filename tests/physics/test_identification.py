@@ -54,7 +54,7 @@ def test_rls_with_forgetting_is_exponentially_weighted_least_squares():
 
 
 def test_closed_loop_estimates_are_rls_on_the_recorded_regression():
-    res = simulate(REF1, REF2, SimulationConfig(duration=300.0))
+    res = simulate(REF1, REF2, SimulationConfig(duration=300.0, rls_columns="all"))
     y, psi = regressors_from_result(res)
     cfg = res.config
     th = rls(y, psi, cfg.rls_lambda, cfg.rls_p0, scales=SCALES, y_scale=cfg.rls_scales[2])
@@ -64,6 +64,19 @@ def test_closed_loop_estimates_are_rls_on_the_recorded_regression():
         rls(scaled_y, psi / SCALES, 1.0, cfg.rls_p0)[:, -1],
         batch_least_squares(scaled_y, psi / SCALES, P0=cfg.rls_p0), rtol=1e-8,
     )  # fmt: skip
+
+
+def test_leaving_columns_out_is_rls_on_the_reduced_regression():
+    """The kernel's column mask (zero prior covariance) equals an RLS without the columns."""
+    cfg = SimulationConfig(duration=300.0)
+    assert cfg.rls_columns == ("k1xx", "k2xx", "R")
+    res = simulate(REF1, REF2, cfg)
+    y, psi = regressors_from_result(res)
+    keep = [0, 1, 4]
+    th = rls(y, psi[..., keep], cfg.rls_lambda, cfg.rls_p0, scales=SCALES[keep],
+             y_scale=cfg.rls_scales[2])  # fmt: skip
+    np.testing.assert_allclose(th, res.theta_hat[..., keep], rtol=1e-12, atol=1e-25)
+    assert np.all(np.isnan(res.theta_hat[..., [2, 3]]))
 
 
 def test_regression_is_exact_without_noise():

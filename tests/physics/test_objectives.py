@@ -65,3 +65,16 @@ def test_evaluate_on_a_simulation():
     assert ev["feasible"][0] and ev["reason"] == [""]
     assert ev["M"][0] == pytest.approx(ev["convergence_time"][0] / 60
                                        + 1e10 * ev["convergence_accuracy"][0])  # fmt: skip
+
+
+def test_eq20_realised_is_on_the_simulated_motion_and_command():
+    from tmopt.physics.objectives import eq20_realised
+
+    cfg = SimulationConfig(duration=300.0, ramp_in=0.0)
+    res = simulate(MultiSine(5e-5, 2 * math.pi / 300), MultiSine(3e-5, 2 * math.pi / 500), cfg)
+    g = eq20_realised(res)[0]
+    x1, u1 = np.abs(res.x1_true[0]).max(), np.abs(res.force_x1[0]).max()
+    assert g[0] == pytest.approx(u1 - 0.5 * 1e-7) and g[1] == pytest.approx(x1 - 0.1 * 4e-3)
+    assert g[3] == pytest.approx(np.abs(res.x2_true[0]).max() - 4e-4)
+    # the abrupt start of Eq. 17 saturates the actuator: the command reaches F_max
+    assert u1 == pytest.approx(1e-7) and res.max_abs_command[0, 0] == u1

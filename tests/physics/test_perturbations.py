@@ -9,6 +9,7 @@ import pytest
 from tmopt.physics import _closed_loop as cl
 from tmopt.physics.dynamics import free_motion
 from tmopt.physics.excitation import MultiSine
+from tmopt.physics.scenario import config_at_rate
 from tmopt.physics.simulator import (
     CHANNEL_NAMES,
     Perturbations,
@@ -21,18 +22,19 @@ REF1 = MultiSine([[5e-5], [2e-5]], [[2 * math.pi / 300], [2 * math.pi / 100]])
 REF2 = MultiSine([[3e-5], [1e-5]], 2 * math.pi / 500)
 QUIET = dict(sigma_m1=0.0, sigma_m2=0.0, sigma_acc=0.0, sigma_ele=0.0, fb_sigma=0.0)
 
-# Values of the simulator *before* the hooks existed (commit cb5580e, this scenario):
-# design 0 then 1, samples 17, 1234, 2999.  Printed with repr; see the test below.
+# Values of the simulator before issue 17 (commit a70ed27, controller "pid", this
+# scenario): design 0 then 1, samples 17, 1234, 2999.  The hooks off, the round-one
+# y-axes and all five RLS columns must give them back.  Printed with repr.
 PINNED = {
-    "x1_true": [1.2792304390176088e-07, 2.6433158950611946e-05, -1.0017073782857372e-07,
-                1.2792304390176088e-07, 2.5262981891121954e-05, -8.020125549013771e-08],
-    "acc_x2": [9.977263807735565e-08, -4.6450177142798284e-09, 2.885926292241128e-09,
-               4.262605527358475e-08, -1.4873334683731446e-09, 1.0311180756833993e-09],
+    "x1_true": [1.2792304390176088e-07, 2.6433142885102356e-05, -1.00148850647651e-07,
+                1.2792304390176088e-07, 2.3913525723426363e-05, -7.906688114794072e-08],
+    "acc_x2": [9.977263807735565e-08, -4.64501301954741e-09, 2.885954235948557e-09,
+               4.262575937330045e-08, -1.4873333108245263e-09, 1.0311193974165126e-09],
     "force_y1": [9.375031940359634e-09, 1.2837460506883824e-08, -3.431138220366704e-09,
                  9.375031940359634e-09, 1.2837460506883824e-08, -3.431138220366704e-09],
 }  # fmt: skip
-PINNED_THETA = [9.321573739255498e-08, -8.652552316671592e-11, 9.721729235934105e-08,
-                -8.659411400298852e-11]  # fmt: skip
+PINNED_THETA = [9.321697252113109e-08, -8.652553042270974e-11, 9.723602662898859e-08,
+                -8.659411117127744e-11]  # fmt: skip
 
 
 def _same(a, b):
@@ -44,7 +46,8 @@ def _same(a, b):
 def test_without_perturbations_the_simulator_is_unchanged():
     # Equality to the last digit on the machine that pinned them; libm's exp/cosh may
     # differ in the last ulp elsewhere, which a stable loop keeps far below 1e-9.
-    res = simulate(REF1, REF2, SimulationConfig(duration=300.0), seed=11)
+    cfg = dict(duration=300.0, controller="pid", rls_columns="all", ramp_in=0.0)
+    res = simulate(REF1, REF2, config_at_rate(y_axes="round1", **cfg), seed=11)
     for name, values in PINNED.items():
         got = getattr(res, name)[:, [17, 1234, 2999]].ravel()
         np.testing.assert_allclose(got, values, rtol=1e-9, atol=0, err_msg=name)

@@ -48,6 +48,10 @@ def test_bad_controller_settings_raise():
         ControllerSettings(centres=(0.0, 1.0))
     with pytest.raises(ValueError, match="error_scale"):
         ControllerSettings(error_scale=float("nan"))
+    with pytest.raises(ValueError, match=r"y_derivative_filter must be finite and in \[0, inf\)"):
+        ControllerSettings(y_derivative_filter=-0.5)
+    with pytest.raises(ValueError, match="rls_columns must be distinct names"):
+        SimulationConfig(rls_columns=("k1xx", "kzz"))
 
 
 def test_bad_references_raise():
@@ -76,7 +80,9 @@ def test_divergence_is_infeasible_with_a_reason_and_no_nan():
     res = simulate(refs, MultiSine([[1e-5], [1e-5]], 2 * math.pi / 300), cfg)
     assert res.diverged[0] and "x1" in res.reason[0] and "bound" in res.reason[0]
     assert 0 < res.diverged_at[0] < 300
-    assert np.all(np.isfinite(res.theta_hat)) and np.all(np.isfinite(res.channels))
+    identified = res.config.identified
+    assert np.all(np.isfinite(res.theta_hat[..., identified])) and np.all(np.isfinite(res.channels))
+    assert np.all(np.isnan(res.theta_hat[..., ~identified]))  # not identified: NaN, not 0
     assert not res.diverged[1] and res.reason[1] == "" and res.diverged_at[1] == -1
 
 
@@ -84,8 +90,9 @@ def test_same_seed_is_deterministic_and_seeds_differ():
     cfg = SimulationConfig(duration=100.0)
     a, b = simulate(REF1, REF2, cfg, seed=5), simulate(REF1, REF2, cfg, seed=5)
     c = simulate(REF1, REF2, cfg, seed=6)
-    assert np.array_equal(a.theta_hat, b.theta_hat) and np.array_equal(a.channels, b.channels)
-    assert not np.array_equal(a.theta_hat, c.theta_hat)
+    assert np.array_equal(a.theta_hat, b.theta_hat, equal_nan=True)
+    assert np.array_equal(a.channels, b.channels)
+    assert not np.array_equal(a.theta_hat, c.theta_hat, equal_nan=True)
 
 
 @pytest.mark.parametrize("controller", ["frbf_pid", "pid"])
@@ -95,7 +102,7 @@ def test_batch_size_invariance_is_bit_exact(controller):
     whole = simulate(r1, r2, cfg)
     for i in (0, 3, 6):
         alone = simulate(r1.take(i), r2.take(i), cfg)
-        assert np.array_equal(alone.theta_hat[0], whole.theta_hat[i])
+        assert np.array_equal(alone.theta_hat[0], whole.theta_hat[i], equal_nan=True)
         assert np.array_equal(alone.channels[:, 0], whole.channels[:, i])
 
 
@@ -105,6 +112,8 @@ def test_compiled_batch_equals_the_python_reference_loop():
     fast, slow = simulate(r1, r2, cfg), simulate_reference(r1, r2, cfg)
     np.testing.assert_array_equal(fast.theta_hat, slow.theta_hat)
     np.testing.assert_array_equal(fast.channels, slow.channels)
+    np.testing.assert_array_equal(fast.gains, slow.gains)
+    np.testing.assert_array_equal(fast.max_abs_command, slow.max_abs_command)
 
 
 def test_estimates_only_mode_matches_full_recording():
@@ -112,7 +121,7 @@ def test_estimates_only_mode_matches_full_recording():
     full = simulate(REF1, REF2, cfg)
     light = simulate(REF1, REF2, replace(cfg, record="estimates"))
     assert light.channels is None
-    assert np.array_equal(full.theta_hat, light.theta_hat)
+    assert np.array_equal(full.theta_hat, light.theta_hat, equal_nan=True)
     np.testing.assert_array_equal(full.max_tracking_error, light.max_tracking_error)
     with pytest.raises(AttributeError, match="estimates"):
         _ = light.x1

@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 
 from tmopt.algorithms.nsga2 import NSGA2
-from tmopt.cli import preflight
 from tmopt.metrics import igd
 from tmopt.problems.examples import BinhKorn
 from tmopt.problems.fronts.sampling import nondominated_index
-from tmopt.runner import run_optimisation
+from tmopt.run.cli import preflight
+from tmopt.run.runner import run_optimisation
 
 DOCUMENTED = ["problem=binh_korn", "algorithm=nsga2", "budget=1000"]
 

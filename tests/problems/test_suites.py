@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from pymoo.problems import get_problem
 
-from tmopt.cli import preflight
-from tmopt.config import ConfigError
 from tmopt.problems.suites import SUITE_PROBLEMS, PymooBenchmark, default_n_var
+from tmopt.run.cli import preflight
+from tmopt.run.config import ConfigError
 
 CONF = Path(__file__).resolve().parents[2] / "conf" / "problem"
 

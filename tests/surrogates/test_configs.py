@@ -3,20 +3,18 @@
 from __future__ import annotations
 
 from functools import partial
-from pathlib import Path
 
 import pytest
 from omegaconf import OmegaConf
 
-from tmopt.config import check_node
+from tmopt.run.cli import option_config
+from tmopt.run.config import check_node
 from tmopt.surrogates.base import Surrogate
-
-CONF = Path(__file__).resolve().parents[2] / "conf" / "surrogate"
 
 
 @pytest.mark.parametrize("name", ["gp", "rbf"])
 def test_config_builds_a_working_factory(name, smooth3):
-    node = OmegaConf.load(CONF / f"{name}.yaml")
+    node = option_config("surrogate", name)
     cls = check_node("surrogate", node, name)
     kwargs = {k: v for k, v in OmegaConf.to_container(node).items() if not k.startswith("_")}
     factory = partial(cls, **kwargs)

@@ -9,6 +9,8 @@ Subclasses implement ``_setup``, ``_infill`` (pymoo's name for proposing designs
 ``_advance`` (updating the state with the evaluated batch), and may override
 ``initial_sample_size`` and ``info``. An algorithm whose state is costly to rebuild on
 resume may checkpoint it (:meth:`Algorithm._write_checkpoint`, :attr:`Algorithm.resume_state`).
+Constructors check their arguments with :func:`check_int` and :func:`check_number`, whose
+messages name the algorithm, the argument, the allowed range and the value.
 """
 
 from __future__ import annotations
@@ -23,9 +25,9 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from tmopt.archive import atomic_write_bytes
+from tmopt.evaluation.evaluator import EvaluatedBatch
+from tmopt.files import atomic_write_bytes
 from tmopt.problems.base import ExpensiveProblem
-from tmopt.problems.evaluator import EvaluatedBatch
 
 log = logging.getLogger(__name__)
 
@@ -41,20 +43,14 @@ class Algorithm(ABC):
     """Base class of every optimiser in tmopt.
 
     Args:
-        pop_size: Population size (>= 2).
+        pop_size: Population size (>= 2); each algorithm's constructor has its default.
     """
 
     #: Short name used in configs, tables and messages.
     name: str = "algorithm"
-    #: Whether the algorithm fits surrogate models (drives the ``surrogate`` config).
-    uses_surrogate: bool = False
 
-    def __init__(self, pop_size: int = 100) -> None:
-        if isinstance(pop_size, bool) or not isinstance(pop_size, (int, np.integer)) \
-                or pop_size < 2:
-            raise AlgorithmConfigError(f"algorithm {self.name}: pop_size must be an integer "
-                                       f">= 2, got {pop_size!r}")
-        self.pop_size = int(pop_size)
+    def __init__(self, *, pop_size: int) -> None:
+        self.pop_size = check_int(self.name, "pop_size", pop_size, 2)
         self.problem: ExpensiveProblem | None = None
         self.n_gen = 0
         self.n_evals = 0
@@ -155,6 +151,31 @@ class Algorithm(ABC):
     @abstractmethod
     def _advance(self, batch: EvaluatedBatch) -> None:
         """Update the state with evaluated designs."""
+
+
+def check_int(algorithm: str, label: str, value, minimum: int) -> int:
+    """``value`` as an int, or :class:`AlgorithmConfigError` unless an integer >= minimum."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise AlgorithmConfigError(f"algorithm {algorithm}: {label} must be an integer "
+                                   f">= {minimum}, got {value!r}")
+    return int(value)
+
+
+def check_number(algorithm: str, label: str, value, low: float, high: float = np.inf,
+                 low_open: bool = False) -> float:
+    """``value`` as a float, or :class:`AlgorithmConfigError` unless in [low, high].
+
+    ``low_open`` makes the lower end exclusive, (low, high].
+    """
+    ok = not isinstance(value, bool) and isinstance(value, (int, float, np.floating)) \
+        and np.isfinite(value) and (value > low if low_open else value >= low) \
+        and value <= high
+    if not ok:
+        bracket = "(" if low_open else "["
+        upper = "inf)" if high == np.inf else f"{high}]"
+        raise AlgorithmConfigError(f"algorithm {algorithm}: {label} must be a finite number "
+                                   f"in {bracket}{low}, {upper}, got {value!r}")
+    return float(value)
 
 
 def _design_bytes(X: np.ndarray) -> bytes:

@@ -14,20 +14,20 @@ Implements
     those of the issue and of CMOEAD.m (docs/algorithms-baselines.md lists what is
     unverified).
 
-Parameters (constructor arguments, default, meaning):
-    pop_size (100): upper bound of the population; the population is the number N of
+Parameters (keyword arguments; defaults: the constructor's signature):
+    pop_size: upper bound of the population; the population is the number N of
         Das-Dennis weight vectors, the most partitions with at most ``pop_size`` points
         (N = pop_size for two objectives). The initial sample is N random designs.
-    n_neighbors (None): neighbourhood size T; None = ceil(N / 10) (PlatEMO), at least 2
+    n_neighbors: neighbourhood size T; None = ceil(N / 10) (PlatEMO), at least 2
         (two parents are drawn from it).
-    max_replacements (None): most solutions one child may replace, nr; None =
+    max_replacements: most solutions one child may replace, nr; None =
         ceil(N / 100) (PlatEMO).
-    prob_neighbor_mating (0.9): probability delta that parents (and the replacement pool)
+    prob_neighbor_mating: probability delta that parents (and the replacement pool)
         come from the neighbourhood instead of the whole population.
-    theta (5.0): PBI penalty (Zhang & Li 2007, Eq. for g^pbi), the value of Jain & Deb.
-    crossover_eta (20), crossover_prob (1.0), mutation_eta (20): SBX and polynomial
+    theta: PBI penalty (Zhang & Li 2007, Eq. for g^pbi), the value of Jain & Deb.
+    crossover_eta, crossover_prob, mutation_eta: SBX and polynomial
         mutation (1/n_var per variable); one child per mating (PlatEMO's OperatorGAhalf).
-    batch_size (1): children proposed per ask. 1 is MOEA/D's steady state (each child is
+    batch_size: children proposed per ask. 1 is MOEA/D's steady state (each child is
         evaluated and used before the next is bred); a larger value breeds that many
         children from the same population, evaluates them as one batch (useful when the
         problem evaluates a batch in parallel), then applies them one by one.
@@ -61,8 +61,7 @@ from pymoo.operators.mutation.pm import PM
 from pymoo.util.ref_dirs import get_reference_directions
 from scipy.spatial.distance import cdist
 
-from tmopt.algorithms._evolution import check_int, check_number
-from tmopt.algorithms.base import AlgorithmConfigError
+from tmopt.algorithms.base import AlgorithmConfigError, check_int, check_number
 from tmopt.algorithms.nsga3 import partitions_for
 from tmopt.algorithms.pymoo_adapter import PymooAdapter
 from tmopt.problems.base import ExpensiveProblem
@@ -77,15 +76,18 @@ class ConstrainedMOEAD(MOEAD):
         max_replacements: At most this many replacements per child (nr).
         theta: PBI penalty.
         batch_size: Children per ``ask`` (1 = steady state).
-        kwargs: Passed to :class:`pymoo.algorithms.moo.moead.MOEAD` (mating probability,
-            crossover, mutation).
+        prob_neighbor_mating: Probability of mating (and replacing) within the neighbourhood.
+        kwargs: Passed to :class:`pymoo.algorithms.moo.moead.MOEAD` (crossover, mutation).
+    The values come from :class:`CMOEAD`, whose signature holds the defaults.
     """
 
     def __init__(self, ref_dirs: np.ndarray, n_neighbors: int, max_replacements: int,
-                 theta: float = 5.0, batch_size: int = 1, **kwargs) -> None:
+                 *, theta: float, batch_size: int, prob_neighbor_mating: float,
+                 **kwargs) -> None:
         super().__init__(ref_dirs=ref_dirs, n_neighbors=n_neighbors,
-                         decomposition=PBI(theta=theta), **kwargs)
-        self.prob_neighbor_mating = float(kwargs.get("prob_neighbor_mating", 0.9))
+                         decomposition=PBI(theta=theta),
+                         prob_neighbor_mating=prob_neighbor_mating, **kwargs)
+        self.prob_neighbor_mating = float(prob_neighbor_mating)
         self.max_replacements = max_replacements
         self.batch_size = batch_size
         self._next_subproblem = 0
@@ -145,11 +147,11 @@ class CMOEAD(PymooAdapter):
 
     name = "cmoead"
 
-    def __init__(self, pop_size: int = 100, n_neighbors: int | None = None,
+    def __init__(self, *, pop_size: int = 100, n_neighbors: int | None = None,
                  max_replacements: int | None = None, prob_neighbor_mating: float = 0.9,
                  theta: float = 5.0, crossover_eta: float = 20.0, crossover_prob: float = 1.0,
                  mutation_eta: float = 20.0, batch_size: int = 1) -> None:
-        super().__init__(pop_size)
+        super().__init__(pop_size=pop_size)
         name = self.name
         self.n_neighbors = _optional(check_int, name, "n_neighbors", n_neighbors, 2)
         self.max_replacements = _optional(check_int, name, "max_replacements",

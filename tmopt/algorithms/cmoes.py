@@ -10,16 +10,16 @@ Implements
     (``CMOES.m``, ``EvenSearch.m``, ``GetLable.m``, ``CalFitness.m``, written by the first
     author), which this module follows; the paper's full text was not available here.
 
-Parameters (constructor arguments, default, meaning):
-    pop_size (100): size N of the main population P1; the helper populations P2 and P3
+Parameters (keyword arguments; defaults: the constructor's signature):
+    pop_size: size N of the main population P1; the helper populations P2 and P3
         hold at most N each. The initial sample is 2N random designs (P1 and P2).
-    operator ("ga"): variation, PlatEMO's ``type``: "ga" = SBX + polynomial mutation,
+    operator: variation, PlatEMO's ``type``: "ga" = SBX + polynomial mutation,
         "de" = DE/rand/1/bin (F = 0.5, CR = 1) + polynomial mutation.
-    stage_ratio (0.2): share of the generations (counted as PlatEMO does, ceil(FE / N)
+    stage_ratio: share of the generations (counted as PlatEMO does, ceil(FE / N)
         out of ceil(budget / N)) spent in stage one at least.
-    crossover_eta (20), mutation_eta (20): SBX and polynomial mutation (1/n_var per
+    crossover_eta, mutation_eta: SBX and polynomial mutation (1/n_var per
         variable) distribution indices, PlatEMO's defaults.
-    normalise (True): SPEA2 density and truncation distances on min-max normalised
+    normalise: SPEA2 density and truncation distances on min-max normalised
         objectives (False = PlatEMO's raw distances), as everywhere in tmopt because the
         seed problem's objectives differ by ~12 orders of magnitude.
 
@@ -59,23 +59,18 @@ from math import ceil
 
 import numpy as np
 
-from tmopt.algorithms._evolution import (
-    check_number,
-    de_offspring,
+from tmopt.algorithms.base import Algorithm, AlgorithmConfigError, check_number
+from tmopt.algorithms.operators.survival import (
+    environmental_selection,
     lexicographic_rank,
     nsga2_selection,
-)
-from tmopt.algorithms.base import Algorithm, AlgorithmConfigError
-from tmopt.algorithms.selection import (
-    environmental_selection,
-    ga_offspring,
     spea2_fitness,
-    total_violation,
-    tournament,
     truncation,
 )
+from tmopt.algorithms.operators.variation import de_offspring, ga_offspring, tournament
+from tmopt.evaluation.evaluator import EvaluatedBatch
+from tmopt.metrics.indicators import constraint_violation
 from tmopt.problems.base import ExpensiveProblem
-from tmopt.problems.evaluator import EvaluatedBatch
 
 log = logging.getLogger(__name__)
 
@@ -92,7 +87,7 @@ class _Set:
 
     @property
     def cv(self) -> np.ndarray:
-        return total_violation(self.G)
+        return constraint_violation(self.G)
 
     def take(self, idx) -> _Set:
         return _Set(self.X[idx], self.F[idx], self.G[idx])
@@ -148,10 +143,10 @@ class CMOES(Algorithm):
 
     name = "cmoes"
 
-    def __init__(self, pop_size: int = 100, operator: str = "ga", stage_ratio: float = 0.2,
+    def __init__(self, *, pop_size: int = 100, operator: str = "ga", stage_ratio: float = 0.2,
                  crossover_eta: float = 20.0, mutation_eta: float = 20.0,
                  normalise: bool = True) -> None:
-        super().__init__(pop_size)
+        super().__init__(pop_size=pop_size)
         if operator not in OPERATORS:
             raise AlgorithmConfigError(f"algorithm {self.name}: operator must be one of "
                                        f"{OPERATORS}, got {operator!r}")
@@ -227,8 +222,8 @@ class CMOES(Algorithm):
         """Offspring of the mating pairs: GA (2 or 1 child per pair) or DE (1 per pair)."""
         p = self.problem
         if self.operator == "ga":
-            kids = ga_offspring(X, mates, p.xl, p.xu, self.rng, self.crossover_eta,
-                                self.mutation_eta)
+            kids = ga_offspring(X, mates, p.xl, p.xu, self.rng,
+                                crossover_eta=self.crossover_eta, mutation_eta=self.mutation_eta)
             return kids if both else kids[: len(mates)]
         # PlatEMO's OperatorDE(Problem, P, P(pool first half), P(pool second half)): every
         # member is a base vector once, so DE gives one child per member in both stages.

@@ -8,20 +8,21 @@ Implements
     algorithm for constrained multi-objective optimization", Knowledge-Based Systems 228:
     107263, 2021 (reference code: PlatEMO ``Algorithms/Multi-objective optimization/C-TSEA``).
 
-Parameters (constructor arguments, default, meaning):
-    pop_size (100): population and archive size N; one generation evaluates N offspring.
-    stage_ratio (0.5): share of the budget spent in stage one.
-    crossover_eta (20), mutation_eta (20): SBX (probability 1) and polynomial mutation
+Parameters (keyword arguments; defaults: the constructor's signature):
+    pop_size: population and elite-set size N; one generation evaluates N offspring.
+    stage_ratio: share of the budget spent in stage one.
+    crossover_eta, mutation_eta: SBX (probability 1) and polynomial mutation
         (1/n_var per variable), PlatEMO's ``OperatorGA`` defaults.
-    normalise (True): SPEA2 density and truncation on min-max normalised objectives
-        (False = PlatEMO's raw distances); see tmopt.algorithms.selection.
+    normalise: SPEA2 density and truncation on min-max normalised objectives
+        (False = PlatEMO's raw distances); see tmopt.algorithms.operators.survival.
 
 Algorithm:
     Stage one (the first ``stage_ratio`` of the budget) ignores the constraints and drives
     the population towards the unconstrained front with AR-MOEA (Tian et al., IEEE TEVC
     22(4), 2018: IGD-NS based mating and environmental selection with adaptive reference
-    points), while an archive of size N collects the feasible designs (filled up with the
-    least-violating ones, cut back by constrained SPEA2). Stage two swaps archive and
+    points), while an elite set of size N (the paper's "archive"; tmopt's archive is every
+    real evaluation) collects the feasible designs (filled up with the least-violating
+    ones, cut back by constrained SPEA2). Stage two swaps elite set and
     population once and evolves the population with SPEA2 under constrained dominance
     (binary tournament on its fitness, SBX + PM, SPEA2 environmental selection).
 
@@ -30,11 +31,11 @@ Quirks of the reference fixed here (docs/algorithms-mgsaea.md, "C-TSEA"):
       with -inf (AR-MOEA's line that copies it back was dropped), so stage one mates at
       random; here the IGD-NS fitness drives the tournament, as in AR-MOEA.
     * ``UpdateArchive`` re-appends the feasible members of the current population every
-      generation, so the archive fills with copies; here only designs not yet in the
-      archive are added.
-    * The archive starts with the feasible initial designs only and may be empty when
+      generation, so the elite set fills with copies; here only designs not yet in it
+      are added.
+    * The elite set starts with the feasible initial designs only and may be empty when
       stage two begins (then the swapped population is empty); here it is filled to N
-      with the least-violating initial designs, as every later archive update does.
+      with the least-violating initial designs, as every later update does.
     * A collapsed objective range sets the upper bound to 1 (meaningless when the ideal
       value exceeds 1); here it becomes ideal + 1.
     * AR-MOEA's ``UniformPoint`` adds an inner layer for many objectives; here one
@@ -50,14 +51,10 @@ from pymoo.util.ref_dirs import get_reference_directions
 from scipy.spatial.distance import cdist
 
 from tmopt.algorithms.base import Algorithm, AlgorithmConfigError
-from tmopt.algorithms.selection import (
-    environmental_selection,
-    ga_offspring,
-    spea2_fitness,
-    total_violation,
-    tournament,
-)
-from tmopt.problems.evaluator import EvaluatedBatch
+from tmopt.algorithms.operators.survival import environmental_selection, spea2_fitness
+from tmopt.algorithms.operators.variation import ga_offspring, tournament
+from tmopt.evaluation.evaluator import EvaluatedBatch
+from tmopt.metrics.indicators import constraint_violation
 
 
 # ---- AR-MOEA parts (no library offers them) --------------------------------------------------
@@ -204,10 +201,10 @@ class CTSEA(Algorithm):
 
     name = "ctsea"
 
-    def __init__(self, pop_size: int = 100, stage_ratio: float = 0.5,
+    def __init__(self, *, pop_size: int = 100, stage_ratio: float = 0.5,
                  crossover_eta: float = 20.0, mutation_eta: float = 20.0,
                  normalise: bool = True) -> None:
-        super().__init__(pop_size)
+        super().__init__(pop_size=pop_size)
         if isinstance(stage_ratio, bool) or not isinstance(stage_ratio, (int, float)) \
                 or not 0.0 <= stage_ratio <= 1.0:
             raise AlgorithmConfigError(f"algorithm {self.name}: stage_ratio must be in "
@@ -225,7 +222,7 @@ class CTSEA(Algorithm):
         self.W = uniform_points(self.pop_size, self.problem.n_obj)
         self.stage = 1
         self.pop: dict | None = None
-        self.archive: dict | None = None
+        self.elite: dict | None = None
         self._pending_stage = 1
 
     def info(self) -> dict:
@@ -237,7 +234,7 @@ class CTSEA(Algorithm):
             return FloatRandomSampling().do(self.problem, self.pop_size,
                                             random_state=self.rng).get("X")
         if self.stage == 1 and self.n_evals >= self.stage_ratio * self.budget:
-            self.pop, self.archive = self.archive, self.pop  # swap once
+            self.pop, self.elite = self.elite, self.pop  # swap once
             self.stage = 2
         self._pending_stage = self.stage
         mates = self._mating_stage_one() if self.stage == 1 else self._mating_stage_two()
@@ -248,7 +245,7 @@ class CTSEA(Algorithm):
         return tournament(-removal_metric(dist), self.pop_size, self.rng)
 
     def _mating_stage_two(self) -> np.ndarray:
-        fit = spea2_fitness(self.pop["F"], total_violation(self.pop["G"]),
+        fit = spea2_fitness(self.pop["F"], constraint_violation(self.pop["G"]),
                             normalise=self.normalise)
         return tournament(fit, self.pop_size, self.rng)
 
@@ -256,7 +253,7 @@ class CTSEA(Algorithm):
         n_pairs = max(len(parents) // 2, 1)
         pairs = np.arange(2 * n_pairs).reshape(2, n_pairs).T  # PlatEMO: first half x second
         return ga_offspring(parents, pairs, self.problem.xl, self.problem.xu, self.rng,
-                            self.crossover_eta, self.mutation_eta)
+                            crossover_eta=self.crossover_eta, mutation_eta=self.mutation_eta)
 
     # ---- tell -----------------------------------------------------------------------------
     def _advance(self, batch: EvaluatedBatch) -> None:
@@ -264,35 +261,36 @@ class CTSEA(Algorithm):
         if self.pop is None:
             self.pop = new
             self.ref_archive, self.ref, self.bounds = update_ref_points(new["F"], self.W, None)
-            self.archive = self._update_archive(None, new)
+            self.elite = self._update_elite(None, new)
         elif self._pending_stage == 1:
             both = _join(self.pop, new)
             self.ref_archive, self.ref, self.bounds = update_ref_points(
                 np.vstack([self.ref_archive, new["F"]]), self.W, self.bounds)
-            self.archive = self._update_archive(self.archive, both)
+            self.elite = self._update_elite(self.elite, both)
             idx, self.bounds = armoea_selection(both["F"], self.ref, self.bounds, self.pop_size)
             self.pop = _take(both, idx)
         else:
             both = _join(self.pop, new)
-            fit = spea2_fitness(both["F"], total_violation(both["G"]), normalise=self.normalise)
+            fit = spea2_fitness(both["F"], constraint_violation(both["G"]),
+                                normalise=self.normalise)
             idx = environmental_selection(fit, both["F"], self.pop_size, normalise=self.normalise)
             self.pop = _take(both, idx[np.argsort(fit[idx], kind="stable")])
 
-    def _update_archive(self, archive: dict | None, pop: dict) -> dict:
+    def _update_elite(self, elite: dict | None, pop: dict) -> dict:
         """Feasible designs join (no copies); fill to N by violation or cut by CDP-SPEA2."""
-        cv = total_violation(pop["G"])
+        cv = constraint_violation(pop["G"])
         fresh = cv <= 0.0
-        if archive is not None:
-            fresh &= ~_rows_in(pop["X"], archive["X"])
-        arc = _take(pop, np.flatnonzero(fresh)) if archive is None \
-            else _join(archive, _take(pop, np.flatnonzero(fresh)))
+        if elite is not None:
+            fresh &= ~_rows_in(pop["X"], elite["X"])
+        arc = _take(pop, np.flatnonzero(fresh)) if elite is None \
+            else _join(elite, _take(pop, np.flatnonzero(fresh)))
         n = self.pop_size
         if len(arc["X"]) < n:
             rest = np.flatnonzero(~_rows_in(pop["X"], arc["X"]))
             rest = rest[np.argsort(cv[rest], kind="stable")][: n - len(arc["X"])]
             arc = _join(arc, _take(pop, rest))
         elif len(arc["X"]) > n:
-            fit = spea2_fitness(arc["F"], total_violation(arc["G"]), normalise=self.normalise)
+            fit = spea2_fitness(arc["F"], constraint_violation(arc["G"]), normalise=self.normalise)
             arc = _take(arc, environmental_selection(fit, arc["F"], n, normalise=self.normalise))
         return arc
 

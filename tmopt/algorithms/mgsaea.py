@@ -10,33 +10,35 @@ Implements
     the seed paper (aerospace 12(8): 673, 2025, Sec. 3.2.2, Fig. 3): MGSAEA-IPC, and the
     ablation MGSAEA* of its Table 3.
 
-Parameters (constructor arguments, default, meaning):
-    pop_size (100): archive size N (PlatEMO's ``Problem.N``; the seed paper's
-        "population 100"). The final solutions are taken from this archive.
-    wmax (20): surrogate-only generations per iteration.
-    mu (5): real evaluations per iteration.
-    gap (20): iterations over which the ideal point's change rate mc is measured.
-    threshold (1e-3): stage two starts once mc <= threshold (PlatEMO's ``lambda``).
-    sigma (1e-3): small positive number in the denominator of mc (seed paper Eq. 20).
-    n_init (None): size of the Latin-hypercube initial sample, which is also the size NI
-        of the real and the surrogate population; None = 11 * n_var - 1.
-    max_iter (100): iterations (of ``mu`` real evaluations each) after the initial sample,
-        the seed paper's "iterations = 100"; None = until the budget is spent.
-    crossover_eta (20), mutation_eta (20): SBX (probability 1) and polynomial mutation
-        (1/n_var per variable) distribution indices, PlatEMO's ``OperatorGA`` defaults.
-    normalise (True): SPEA2 density and truncation on min-max normalised objectives
-        (False = PlatEMO's raw distances).
-    surrogate (None): zero-argument factory of :class:`~tmopt.surrogates.base.Surrogate`;
-        None = :class:`tmopt.surrogates.gp.GPSurrogate`.
-    ungrouped ("first", MGSAEA-IPC only): what IPC does on a problem that declares no
-        constraint groups: "first" = constraint 0 is the key individual's (the same as
-        the suites' ``constraint_groups=split``), "error" = refuse.
+Parameters (keyword arguments; their defaults, PlatEMO's and the seed paper's settings,
+are written once, in the signature of :class:`MGSAEA` and :class:`MGSAEAIPC`):
+    pop_size: size N of the elite set (PlatEMO's ``Problem.N``, its ``Archive``; the seed
+        paper's "population"). Not the run's archive of every real evaluation, from which
+        tmopt takes the final set (docs/decisions.md, "Final set").
+    wmax: surrogate-only generations per iteration.
+    mu: real evaluations per iteration.
+    gap: iterations over which the ideal point's change rate mc is measured.
+    threshold: stage two starts once mc <= threshold (PlatEMO's ``lambda``).
+    sigma: small positive number in the denominator of mc (seed paper Eq. 20).
+    n_init: size of the Latin-hypercube initial sample, which is also the size NI of the
+        real and the surrogate population; None = 11 * n_var - 1 (MGSAEA.m).
+    max_iter: iterations (of ``mu`` real evaluations each) after the initial sample, the
+        seed paper's "iterations"; None = until the budget is spent.
+    crossover_eta, mutation_eta: SBX (probability 1) and polynomial mutation (1/n_var per
+        variable) distribution indices, PlatEMO's ``OperatorGA`` defaults.
+    normalise: SPEA2 density and truncation on min-max normalised objectives (False =
+        PlatEMO's raw distances).
+    surrogate: zero-argument factory of :class:`~tmopt.surrogates.base.Surrogate`; None =
+        :class:`tmopt.surrogates.gp.GPSurrogate`.
+    ungrouped (MGSAEA-IPC only): what IPC does on a problem that declares no constraint
+        groups: "first" = constraint 0 is the key individual's (the same as the suites'
+        ``constraint_groups=split``), "error" = refuse.
 
 Algorithm (one iteration = fit surrogates, ``wmax`` surrogate generations, ``mu`` real
 evaluations), following MGSAEA.m:
 
 1. Initial sample: LHS of NI designs, evaluated for real; they form the population; the
-   archive is the population reduced to N by constrained SPEA2 selection.
+   elite set is the population reduced to N by constrained SPEA2 selection.
 2. Stage one. The three variants differ only here (the models and the ranking):
    MGSAEA: objectives only (M models, SPEA2, constraints ignored, as PlatEMO);
    MGSAEA-IPC: objectives + the key individual's constraints (M + N_kn models, one per
@@ -47,15 +49,15 @@ evaluations), following MGSAEA.m:
    more than ``gap`` iterations are recorded, mc (seed paper Eq. 20) <= threshold
    switches to stage two for good.
 4. Stage two (all variants): the granularity follows the population
-   (:func:`~tmopt.algorithms.selection.choose_granularity`): coarse = objectives + one
-   model of the normalised total violation, CDP; fine = objectives + one model per not
+   (:func:`~tmopt.algorithms.operators.constraints.choose_granularity`): coarse = objectives
+   + one model of the normalised total violation, CDP; fine = objectives + one model per not
    fully satisfied constraint, their summed violation an extra objective of SPEA2;
    objectives = objective models only, SPEA2 (TNNLS paper Sec. III).
 5. In both stages: ``wmax`` generations of binary tournament (SPEA2 fitness), SBX + PM
    and SPEA2 environmental selection on the predictions; then the ``mu`` designs chosen
    by the same selection from the final surrogate population are evaluated for real;
    the population keeps its NI - mu best (selection of the current stage) plus the new
-   ones; the archive takes the new ones and is cut back to N by constrained SPEA2.
+   ones; the elite set takes the new ones and is cut back to N by constrained SPEA2.
 
 Quirks of the reference fixed here (details in docs/algorithms-mgsaea.md): |.| in the
 denominator of mc; violations scaled by the population's largest violation instead of
@@ -74,20 +76,14 @@ import numpy as np
 from pymoo.operators.sampling.lhs import LHS
 from scipy.spatial.distance import cdist
 
-from tmopt.algorithms.base import Algorithm, AlgorithmConfigError
-from tmopt.algorithms.selection import (
-    change_rate,
-    choose_granularity,
-    environmental_selection,
-    ga_offspring,
-    spea2_fitness,
-    total_violation,
-    tournament,
-    unique_rows,
-)
-from tmopt.metrics.selection import best_compromise
+from tmopt.algorithms.base import Algorithm, AlgorithmConfigError, check_int
+from tmopt.algorithms.operators.constraints import choose_granularity
+from tmopt.algorithms.operators.stage import change_rate
+from tmopt.algorithms.operators.survival import environmental_selection, spea2_fitness
+from tmopt.algorithms.operators.variation import ga_offspring, tournament, unique_rows
+from tmopt.evaluation.evaluator import EvaluatedBatch
+from tmopt.metrics.indicators import constraint_violation
 from tmopt.problems.base import ConstraintGroup, ExpensiveProblem
-from tmopt.problems.evaluator import EvaluatedBatch
 from tmopt.surrogates.base import Surrogate
 
 log = logging.getLogger(__name__)
@@ -189,23 +185,23 @@ class MGSAEA(Algorithm):
     """MGSAEA (see the module docstring for parameters and the algorithm)."""
 
     name = "mgsaea"
-    uses_surrogate = True
     #: Constraints of stage one: "none" (MGSAEA), "key" (MGSAEA-IPC), "all" (MGSAEA*).
     stage_one_constraints = "none"
 
-    def __init__(self, pop_size: int = 100, wmax: int = 20, mu: int = 5, gap: int = 20,
+    def __init__(self, *, pop_size: int = 100, wmax: int = 20, mu: int = 5, gap: int = 20,
                  threshold: float = 1e-3, sigma: float = 1e-3, n_init: int | None = None,
                  max_iter: int | None = 100, crossover_eta: float = 20.0,
                  mutation_eta: float = 20.0, normalise: bool = True,
                  surrogate: SurrogateFactory | None = None) -> None:
-        super().__init__(pop_size)
-        self.wmax = self._int("wmax", wmax, 0)
-        self.mu = self._int("mu", mu, 1)
-        self.gap = self._int("gap", gap, 1)
+        super().__init__(pop_size=pop_size)
+        name = self.name
+        self.wmax = check_int(name, "wmax", wmax, 0)
+        self.mu = check_int(name, "mu", mu, 1)
+        self.gap = check_int(name, "gap", gap, 1)
         self.threshold = self._positive("threshold", threshold)
         self.sigma = self._positive("sigma", sigma)
-        self.n_init = None if n_init is None else self._int("n_init", n_init, 2)
-        self.max_iter = None if max_iter is None else self._int("max_iter", max_iter, 0)
+        self.n_init = None if n_init is None else check_int(name, "n_init", n_init, 2)
+        self.max_iter = None if max_iter is None else check_int(name, "max_iter", max_iter, 0)
         self.crossover_eta = self._positive("crossover_eta", crossover_eta)
         self.mutation_eta = self._positive("mutation_eta", mutation_eta)
         self.normalise = bool(normalise)
@@ -215,13 +211,6 @@ class MGSAEA(Algorithm):
         self._factory = surrogate
 
     # ---- argument checks ------------------------------------------------------------------
-    def _int(self, label: str, value, minimum: int) -> int:
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
-                or value < minimum:
-            raise AlgorithmConfigError(f"algorithm {self.name}: {label} must be an integer "
-                                       f">= {minimum}, got {value!r}")
-        return int(value)
-
     def _positive(self, label: str, value) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)) \
                 or not np.isfinite(value) or value <= 0:
@@ -243,7 +232,7 @@ class MGSAEA(Algorithm):
                         "taken as the key individual's (ungrouped=first)", self.name,
                         self.problem.name)
         self._pop: _Set | None = None
-        self._archive: _Set | None = None
+        self._elite: _Set | None = None
         self._seen = np.zeros((0, self.problem.n_var))  # every design sent, failed ones too
         self._ideal: list[np.ndarray] = []
         self.stage = 1
@@ -290,7 +279,8 @@ class MGSAEA(Algorithm):
         """Record the ideal point; switch to stage two once mc <= threshold (Eq. 20)."""
         self._ideal.append(self._pop.F.min(axis=0))
         if self.stage == 1 and len(self._ideal) > self.gap:
-            self.last_mc = change_rate(self._ideal[-1], self._ideal[-1 - self.gap], self.sigma)
+            self.last_mc = change_rate(self._ideal[-1], self._ideal[-1 - self.gap],
+                                       sigma=self.sigma)
             if self.last_mc <= self.threshold:
                 self.stage = 2
                 log.info("%s: stage two after %d iterations (mc=%.3g <= %.3g)", self.name,
@@ -363,7 +353,7 @@ class MGSAEA(Algorithm):
 
     def _variation(self, X: np.ndarray, mates: np.ndarray) -> np.ndarray:
         return ga_offspring(X, mates, self.problem.xl, self.problem.xu, self.rng,
-                            self.crossover_eta, self.mutation_eta)
+                            crossover_eta=self.crossover_eta, mutation_eta=self.mutation_eta)
 
     def _choose_infill(self, plan: ModelPlan, X: np.ndarray, P: np.ndarray) -> np.ndarray:
         """The ``mu`` designs to evaluate: SPEA2 selection among the not-yet-evaluated ones.
@@ -390,14 +380,14 @@ class MGSAEA(Algorithm):
     # ---- tell -------------------------------------------------------------------------------
     def _advance(self, batch: EvaluatedBatch) -> None:
         # Failed designs carry penalty values; they would distort every model, so they
-        # stay out of the population and the archive (they remain in self._seen).
+        # stay out of the population and the elite set (they remain in self._seen).
         ok = ~np.asarray(batch.failed, dtype=bool)
         new = _Set(batch.X[ok], batch.F[ok], batch.G[ok])
         if self._pop is None:
             self._pop = new
         else:
             self._pop = self._update_population(new)
-        self._archive = self._update_archive(new)
+        self._elite = self._update_elite(new)
         if len(self._pop) < 2:
             raise AlgorithmStateError(
                 f"algorithm {self.name}: only {len(self._pop)} successful evaluation(s) in "
@@ -424,45 +414,26 @@ class MGSAEA(Algorithm):
         if not con:
             return np.zeros(len(s))
         cols = list(con)
-        return total_violation(s.G[:, cols] / scale[cols])
+        return constraint_violation(s.G[:, cols] / scale[cols])
 
-    def _update_archive(self, new: _Set) -> _Set:
-        """Archive of size N: union, duplicates (objectives) removed, constrained SPEA2."""
-        arc = new if self._archive is None else _Set.join(self._archive, new)
-        arc = arc.take(unique_rows(arc.F))
-        if len(arc) > self.pop_size:
-            fit = spea2_fitness(arc.F, total_violation(arc.G), normalise=self.normalise)
-            arc = arc.take(environmental_selection(fit, arc.F, self.pop_size,
-                                                   normalise=self.normalise))
-        return arc
+    def _update_elite(self, new: _Set) -> _Set:
+        """Elite set of size N: union, duplicates (objectives) removed, constrained SPEA2."""
+        elite = new if self._elite is None else _Set.join(self._elite, new)
+        elite = elite.take(unique_rows(elite.F))
+        if len(elite) > self.pop_size:
+            fit = spea2_fitness(elite.F, constraint_violation(elite.G), normalise=self.normalise)
+            elite = elite.take(environmental_selection(fit, elite.F, self.pop_size,
+                                                       normalise=self.normalise))
+        return elite
 
     # ---- results ----------------------------------------------------------------------------
     @property
-    def archive(self) -> dict[str, np.ndarray]:
-        """The archive (copies): ``X``, ``F``, ``G``."""
-        if self._archive is None:
+    def elite(self) -> dict[str, np.ndarray]:
+        """The elite set of size N (copies): ``X``, ``F``, ``G``."""
+        if self._elite is None:
             return {"X": np.zeros((0, 0)), "F": np.zeros((0, 0)), "G": np.zeros((0, 0))}
-        return {"X": self._archive.X.copy(), "F": self._archive.F.copy(),
-                "G": self._archive.G.copy()}
-
-    def final_solution(self) -> dict:
-        """The solution chosen from the archive by the seed paper's Eq. 21.
-
-        Eq. 21 picks among the feasible non-dominated archive members; if none is
-        feasible, the least-violating member is returned (``feasible`` False).
-        """
-        if self._archive is None or len(self._archive) == 0:
-            raise AlgorithmStateError(f"algorithm {self.name}: no archive yet")
-        arc = self._archive
-        cv = total_violation(arc.G)
-        feas = np.flatnonzero(cv <= 0.0)
-        if feas.size == 0:
-            i = int(np.argmin(cv))
-            return {"index": i, "X": arc.X[i], "F": arc.F[i], "G": arc.G[i], "feasible": False}
-        fit = spea2_fitness(arc.F[feas], normalise=False)
-        front = feas[fit < 1.0]
-        i = int(front[best_compromise(arc.F[front])])
-        return {"index": i, "X": arc.X[i], "F": arc.F[i], "G": arc.G[i], "feasible": True}
+        return {"X": self._elite.X.copy(), "F": self._elite.F.copy(),
+                "G": self._elite.G.copy()}
 
 
 class MGSAEAIPC(MGSAEA):
@@ -471,20 +442,16 @@ class MGSAEAIPC(MGSAEA):
     name = "mgsaea_ipc"
     stage_one_constraints = "key"
 
-    def __init__(self, pop_size: int = 100, wmax: int = 20, mu: int = 5, gap: int = 20,
-                 threshold: float = 1e-3, sigma: float = 1e-3, n_init: int | None = None,
-                 max_iter: int | None = 100, crossover_eta: float = 20.0,
-                 mutation_eta: float = 20.0, normalise: bool = True,
-                 surrogate: SurrogateFactory | None = None, ungrouped: str = "first") -> None:
-        super().__init__(pop_size, wmax, mu, gap, threshold, sigma, n_init, max_iter,
-                         crossover_eta, mutation_eta, normalise, surrogate)
+    def __init__(self, *, ungrouped: str = "first", **kwargs) -> None:
+        """Args: ``ungrouped`` (see the module docstring) and MGSAEA's keyword arguments."""
+        super().__init__(**kwargs)
         if ungrouped not in ("first", "error"):
             raise AlgorithmConfigError(f"algorithm {self.name}: ungrouped must be 'first' "
                                        f"or 'error', got {ungrouped!r}")
         self.ungrouped = ungrouped
 
     def check_budget(self, problem: ExpensiveProblem, budget: int) -> None:
-        # The pre-flight hook that both the CLI (tmopt.build) and setup() call: a problem
+        # The pre-flight hook that both the CLI (tmopt.run.build) and setup() call: a problem
         # IPC cannot group fails here with one line, before any evaluation.
         super().check_budget(problem, budget)
         self.stage_one_indices(problem)

@@ -2,10 +2,10 @@
 
 Tags: multi-objective, constrained (constrained-dominance), not surrogate-assisted.
 
-Parameters:
-    pop_size (100): population size; every generation evaluates ``pop_size`` offspring.
-    crossover_eta (15), crossover_prob (0.9): simulated binary crossover.
-    mutation_eta (20): polynomial mutation (probability 1/n_var per variable).
+Parameters (keyword arguments; defaults: the constructor's signature):
+    pop_size: population size; every generation evaluates ``pop_size`` offspring.
+    crossover_eta, crossover_prob: simulated binary crossover.
+    mutation_eta: polynomial mutation (probability 1/n_var per variable).
 """
 
 from __future__ import annotations
@@ -20,9 +20,9 @@ from tmopt.algorithms.pymoo_adapter import PymooAdapter
 class NSGA2(PymooAdapter):
     name = "nsga2"
 
-    def __init__(self, pop_size: int = 100, crossover_eta: float = 15.0,
+    def __init__(self, *, pop_size: int = 100, crossover_eta: float = 15.0,
                  crossover_prob: float = 0.9, mutation_eta: float = 20.0) -> None:
-        super().__init__(pop_size)
+        super().__init__(pop_size=pop_size)
         self.crossover = SBX(prob=crossover_prob, eta=crossover_eta)
         self.mutation = PM(eta=mutation_eta)
 

@@ -2,10 +2,10 @@
 
 Tags: multi-/many-objective, constrained (constrained-dominance), not surrogate-assisted.
 
-Parameters:
-    pop_size (100): population size; reference directions are Das-Dennis with the largest
+Parameters (keyword arguments; defaults: the constructor's signature):
+    pop_size: population size; reference directions are Das-Dennis with the largest
         number of partitions whose point count does not exceed ``pop_size``.
-    crossover_eta (30), crossover_prob (1.0), mutation_eta (20): SBX and polynomial
+    crossover_eta, crossover_prob, mutation_eta: SBX and polynomial
         mutation as in the NSGA-III paper.
 """
 
@@ -24,9 +24,9 @@ from tmopt.algorithms.pymoo_adapter import PymooAdapter
 class NSGA3(PymooAdapter):
     name = "nsga3"
 
-    def __init__(self, pop_size: int = 100, crossover_eta: float = 30.0,
+    def __init__(self, *, pop_size: int = 100, crossover_eta: float = 30.0,
                  crossover_prob: float = 1.0, mutation_eta: float = 20.0) -> None:
-        super().__init__(pop_size)
+        super().__init__(pop_size=pop_size)
         self.crossover = SBX(prob=crossover_prob, eta=crossover_eta)
         self.mutation = PM(eta=mutation_eta)
 

@@ -17,7 +17,7 @@ from pymoo.core.termination import NoTermination
 from pymoo.problems.static import StaticProblem
 
 from tmopt.algorithms.base import Algorithm
-from tmopt.problems.evaluator import EvaluatedBatch
+from tmopt.evaluation.evaluator import EvaluatedBatch
 
 
 class PymooAdapter(Algorithm):

@@ -14,37 +14,37 @@ Implements
     BoTorch's ``qLogNoisyExpectedHypervolumeImprovement`` and ``optimize_acqf`` do the
     work; nothing of the acquisition is written here.
 
-Parameters (constructor arguments, default, meaning):
-    n_init (None): size of the scrambled Sobol initial sample; None = 2 (D + 1), BoTorch's
+Parameters (keyword arguments; defaults: the constructor's signature):
+    n_init: size of the scrambled Sobol initial sample; None = 2 (D + 1), BoTorch's
         tutorial rule (11 D - 1 would spend 197 of 300 evaluations at D = 18).
-    q (5): designs per iteration (batch size), the same as MGSAEA's mu.
-    num_restarts (4), raw_samples (128): multi-start L-BFGS-B of the acquisition, from
+    q: designs per iteration (batch size), the same as MGSAEA's mu.
+    num_restarts, raw_samples: multi-start L-BFGS-B of the acquisition, from
         the best of ``raw_samples`` Sobol points (modest so an iteration fits two cores).
-    acq_maxiter (100): L-BFGS-B iterations per restart.
-    mc_samples (64): quasi-Monte-Carlo samples of the joint posterior (seeded Sobol).
-    ref_offset (0.1): reference point = nadir + ref_offset in objectives normalised to
+    acq_maxiter: L-BFGS-B iterations per restart.
+    mc_samples: quasi-Monte-Carlo samples of the joint posterior (seeded Sobol).
+    ref_offset: reference point = nadir + ref_offset in objectives normalised to
         [0, 1] over the data (rule below).
-    ref_point ("all"): whose nadir: "all" = the worst value per objective over every
+    ref_point: whose nadir: "all" = the worst value per objective over every
         design (1 + ref_offset in normalised units); "feasible" = over the feasible designs;
         "front" = over their non-dominated set (the rule before 2026-11-21). The tighter
         rules confine the front: see reference_nadir and
         ``experiments/qlognehvi_reference_point.py``.
-    eta (1e-3): temperature of the (fat-tailed) sigmoid feasibility weight, applied
+    eta: temperature of the (fat-tailed) sigmoid feasibility weight, applied
         to constraints divided by their largest observed magnitude.
-    gp_max_iter (200): L-BFGS-B iterations per GP fit (warm-started from the last fit).
-    kernel ("rbf"): GP kernel, "rbf" or "matern52" (:class:`tmopt.surrogates.gp.GPSurrogate`).
-    max_baseline (None): at most this many observed designs as qLogNEHVI's baseline
+    gp_max_iter: L-BFGS-B iterations per GP fit (warm-started from the last fit).
+    kernel: GP kernel, "rbf" or "matern52" (:class:`tmopt.surrogates.gp.GPSurrogate`).
+    max_baseline: at most this many observed designs as qLogNEHVI's baseline
         X_baseline: BoTorch's own pruning keeps every design with a positive posterior
         probability of being Pareto optimal (~230 of 530 on the stiffness problem, where
         the GPs are unsure), and the joint posterior over that baseline is nearly all of
         an iteration's cost (~n_baseline x n^2 per acquisition evaluation); with a cap,
         BoTorch's ``prune_inferior_points_multi_objective`` keeps the ``max_baseline``
         most probable ones instead. None = BoTorch's default (no cap).
-    max_iter (None): BO iterations (of q evaluations) after the initial sample, after which
+    max_iter: BO iterations (of q evaluations) after the initial sample, after which
         the algorithm stops proposing; None = until the budget is spent. The GPs are exact,
         so budgets of thousands of evaluations (the ``paper`` preset's 10 000) need a cap:
         max_iter = 100 stops after 2 (D + 1) + 500 evaluations, like MGSAEA's.
-    threads (1): torch intra-op threads while fitting and optimising (restored afterwards);
+    threads: torch intra-op threads while fitting and optimising (restored afterwards);
         None = torch's setting. The tensors here are small (a few hundred points), so
         one thread is faster than the OpenMP hand-off, by ~6x on a loaded two-core machine.
 
@@ -95,10 +95,9 @@ from botorch.sampling import SobolQMCNormalSampler
 from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
 from scipy.stats import qmc
 
-from tmopt.algorithms._evolution import check_int, check_number
-from tmopt.algorithms.base import Algorithm, AlgorithmConfigError
+from tmopt.algorithms.base import Algorithm, AlgorithmConfigError, check_int, check_number
+from tmopt.evaluation.evaluator import EvaluatedBatch
 from tmopt.problems.base import ExpensiveProblem
-from tmopt.problems.evaluator import EvaluatedBatch
 from tmopt.surrogates.gp import KERNELS, GPSurrogate
 
 log = logging.getLogger(__name__)
@@ -110,9 +109,8 @@ class QLogNEHVI(Algorithm):
     """qLogNEHVI (see the module docstring for parameters and the algorithm)."""
 
     name = "qlognehvi"
-    uses_surrogate = True
 
-    def __init__(self, n_init: int | None = None, q: int = 5, num_restarts: int = 4,
+    def __init__(self, *, n_init: int | None = None, q: int = 5, num_restarts: int = 4,
                  raw_samples: int = 128, acq_maxiter: int = 100, mc_samples: int = 64,
                  ref_offset: float = 0.1, ref_point: str = "all",
                  eta: float = 1e-3, gp_max_iter: int = 200, kernel: str = "rbf",

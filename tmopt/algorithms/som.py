@@ -31,8 +31,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from tmopt.algorithms._evolution import crowding_per_front
-from tmopt.algorithms.selection import cdp_sort
+from tmopt.algorithms.operators.constraints import cdp_sort
+from tmopt.algorithms.operators.survival import crowding_per_front
 
 
 class SelfOrganisingMap:

@@ -12,18 +12,18 @@ Implements
     written by the paper's second author), which this module follows; the paper's full
     text was not available here.
 
-Parameters (constructor arguments, default, meaning):
-    pop_size (100): population size N; the initial sample is N random designs.
-    n_nodes (None): neurons of the 1-D map; None = N (PlatEMO's ``num_nodes``).
-    eta0 (0.2): initial SOM learning rate.
-    sigma0 (None): initial SOM neighbourhood radius in lattice units; None = N (PlatEMO).
-    epochs (50): SOM training passes over the samples (Training.m).
-    de_f (0.5), de_cr (1.0): DE/rand/1/bin scale factor and crossover rate (PlatEMO's
+Parameters (keyword arguments; defaults: the constructor's signature):
+    pop_size: population size N; the initial sample is N random designs.
+    n_nodes: neurons of the 1-D map; None = N (PlatEMO's ``num_nodes``).
+    eta0: initial SOM learning rate.
+    sigma0: initial SOM neighbourhood radius in lattice units; None = N (PlatEMO).
+    epochs: SOM training passes over the samples (Training.m).
+    de_f, de_cr: DE/rand/1/bin scale factor and crossover rate (PlatEMO's
         OperatorDE defaults), followed by polynomial mutation (mutation_eta, 1/n_var).
-    mutation_eta (20): polynomial mutation distribution index.
-    max_idle (100): consecutive generations in which no child is predicted to survive
+    mutation_eta: polynomial mutation distribution index.
+    max_idle: consecutive generations in which no child is predicted to survive
         before the algorithm stops proposing designs (PlatEMO would loop for ever).
-    model_constraints (False): tmopt's extension, not in the paper or PlatEMO: the SOM
+    model_constraints: tmopt's extension, not in the paper or PlatEMO: the SOM
         also carries the constraint values, and a child's CV is that of its BMU instead
         of 0. Off by default (faithful); see the note on constraints below.
 
@@ -60,11 +60,12 @@ import logging
 
 import numpy as np
 
-from tmopt.algorithms._evolution import check_int, check_number, de_offspring, nsga2_selection
-from tmopt.algorithms.base import Algorithm
-from tmopt.algorithms.selection import total_violation, tournament
+from tmopt.algorithms.base import Algorithm, check_int, check_number
+from tmopt.algorithms.operators.survival import nsga2_selection
+from tmopt.algorithms.operators.variation import de_offspring, tournament
 from tmopt.algorithms.som import SelfOrganisingMap
-from tmopt.problems.evaluator import EvaluatedBatch
+from tmopt.evaluation.evaluator import EvaluatedBatch
+from tmopt.metrics.indicators import constraint_violation
 
 log = logging.getLogger(__name__)
 
@@ -73,13 +74,12 @@ class SSDE(Algorithm):
     """SSDE (see the module docstring for parameters and the algorithm)."""
 
     name = "ssde"
-    uses_surrogate = True
 
-    def __init__(self, pop_size: int = 100, n_nodes: int | None = None, eta0: float = 0.2,
+    def __init__(self, *, pop_size: int = 100, n_nodes: int | None = None, eta0: float = 0.2,
                  sigma0: float | None = None, epochs: int = 50, de_f: float = 0.5,
                  de_cr: float = 1.0, mutation_eta: float = 20.0, max_idle: int = 100,
                  model_constraints: bool = False) -> None:
-        super().__init__(pop_size)
+        super().__init__(pop_size=pop_size)
         name = self.name
         self.n_nodes = None if n_nodes is None else check_int(name, "n_nodes", n_nodes, 1)
         self.eta0 = check_number(name, "eta0", eta0, 0.0, 1.0, low_open=True)
@@ -140,15 +140,15 @@ class SSDE(Algorithm):
     def _generation(self) -> tuple[np.ndarray, np.ndarray]:
         """Children predicted to survive, and the population rows they would replace."""
         n = self.pop_size
-        cv = total_violation(self.G)
+        cv = constraint_violation(self.G)
         base = self.X[tournament(cv, n, self.rng)]
         r1 = self.X[self.rng.integers(0, n, n)]
         r2 = self.X[self.rng.integers(0, n, n)]
-        kids = de_offspring(base, r1, r2, self.problem, self.rng, self.de_f, self.de_cr,
-                            self.mutation_eta)
+        kids = de_offspring(base, r1, r2, self.problem, self.rng, f=self.de_f, cr=self.de_cr,
+                            mutation_eta=self.mutation_eta)
         predicted = self.som.predict(self._normalise(kids))
         m = self.problem.n_obj
-        kid_cv = total_violation(predicted[:, m:]) if self.model_constraints else np.zeros(n)
+        kid_cv = constraint_violation(predicted[:, m:]) if self.model_constraints else np.zeros(n)
         F = np.vstack([self.F, predicted[:, :m]])
         keep = nsga2_selection(F, np.concatenate([cv, kid_cv]), n)[0]
         out = np.setdiff1d(np.arange(n), keep)

@@ -9,8 +9,9 @@ effect is present or not.  Python: :func:`generate_recording`.
 
 Settings the diagnosis tool may not have seen (:class:`tmopt.physics.scenario.Settings`):
 excitation (the paper's Fig. 6 motion, multi-sines, chirps, smoothed steps, none), noise
-scale, duration, sample rate, controller, stiffness and bias values.  Effect physics: one
-module per effect in :mod:`tmopt.mismatch.effects`.
+scale, duration, sample rate, controller, stiffness and bias values, and the simulator's
+physics options; every recording carries spacecraft jitter (:data:`SPACECRAFT_ACCELERATION`).
+Effect physics: one module per effect in :mod:`tmopt.mismatch.effects`.
 """
 
 from __future__ import annotations
@@ -38,16 +39,25 @@ from tmopt.physics.recording import (
     validate,
     write_recording,
 )
-from tmopt.physics.scenario import Settings, excitation, simulation_config
+from tmopt.physics.scenario import Y_AXES, Settings, excitation, simulation_config
 from tmopt.physics.simulator import SimulationConfig, simulate
 
 __all__ = ["GenerationError", "generate_recording", "write_generated", "MAGNITUDES",
+           "SPACECRAFT_ACCELERATION",
            "calibrated_injection",
            "detectability", "calibration_table", "residual_families", "TRUTH_FORMAT",
            "main"]  # fmt: skip
 
 TRUTH_FORMAT = "tmopt-truth"
 TRUTH_VERSION = 1
+
+
+#: Spacecraft acceleration f_B of every recording (``SimulationConfig`` fields at their
+#: 10 Hz values; the scenario's rate rule scales ``fb_sigma`` with the rate and the noise
+#: scale): the round-one level of ``Y_AXES["round1"]``, not in Table 1 and off in the
+#: simulator's default, kept so recordings carry flight-like spacecraft jitter (and the
+#: geometry-error effect, which acts through f_B, stays visible).
+SPACECRAFT_ACCELERATION: dict[str, Any] = {k: Y_AXES["round1"][k] for k in ("fb_bias", "fb_sigma")}
 
 
 class GenerationError(ValueError):
@@ -94,7 +104,7 @@ def generate_recording(
     builder = Builder(n, st.sample_rate, nominal, int(seed))
     truths = [_effect_truth(inj, effect(inj.name).inject(inj, builder)) for inj in injections]
     ref1, ref2, exc = excitation(st.excitation, st.duration, st.sample_rate)
-    cfg = simulation_config(st, builder.geometry)
+    cfg = simulation_config(st, builder.geometry, **SPACECRAFT_ACCELERATION)
     res = simulate(ref1[None], ref2[None], cfg, int(seed), builder.perturbations())
     if res.diverged[0]:
         raise GenerationError(f"the closed loop diverged ({res.reason[0]}) with effects "

@@ -45,9 +45,18 @@ P_SOUT = 41
 P_BOUND = 42
 P_FRBF = 43  # 1.0: FRBF-PID on the sensitive axes, 0.0: plain incremental PID
 P_STEADY = 44  # first sample index of the "steady" window for the tracking summary
-N_PAR = 45
+P_YFILT = 45  # derivative-filter pole a = exp(-dt / tau_f) of the non-sensitive PID (0: none)
+P_JAC = 46  # FRBF plant-Jacobian sign: 0.0 constant +1, 1.0 online sign(dy/du) estimate
+P_MASK = 47  # 5 flags: 1.0 = theta column identified by the RLS, 0.0 = left out
+N_PAR = 52
 
 N_CH = 16  # recorded channels: x (4), x measured (4), acc measured (4), force commanded (4)
+N_GAIN = 6  # recorded gains [Kp, Ki, Kd] of the TM1 and TM2 sensitive-axis controllers
+# summary columns: max|r - x| (x1, x2), the same for t >= steady_after (x1, x2),
+# max|r| realised (x1, x2, y1, y2), max|u| commanded (x1, x2, y1, y2)
+N_SUM = 12
+SUM_XMAX = 4
+SUM_UMAX = 8
 N_THETA = 5
 N_MF = 7  # Gaussian memberships per input
 N_RULE = N_MF * N_MF
@@ -97,6 +106,24 @@ def pid_increment(e, e1, e2, u_prev, kp, ki, kd, fmax):
 
 
 @register_jitable
+def filtered_pid_increment(e, e1, u_prev, d_prev, kp, ki, kd, a, fmax):
+    """Incremental PID with a first-order filter on the derivative term -> (u_n, D_n).
+
+    The derivative term in position form is ``D_n = a D_{n-1} + (1 - a) Kd (e_n -
+    e_{n-1})`` with ``a = exp(-dt / tau_f)`` (the "practical" PID of Astrom & Hagglund,
+    *Advanced PID Control*, 2006, Sec. 3.3); ``u_n = u_{n-1} + Kp (e_n - e_{n-1}) + Ki e_n +
+    (D_n - D_{n-1})``.  ``a = 0`` is Eq. 28's ``Kd (e_n - 2 e_{n-1} + e_{n-2})``.  Output
+    limit and integral freeze as :func:`pid_increment`.
+    """
+    d = a * d_prev + (1.0 - a) * kd * (e - e1)
+    du_i = ki * e
+    if abs(u_prev) >= fmax and du_i * u_prev > 0:
+        du_i = 0.0
+    u = u_prev + kp * (e - e1) + du_i + (d - d_prev)
+    return min(max(u, -fmax), fmax), d
+
+
+@register_jitable
 def frbf_forward(x1, x2, c, b, w, f2, f3, f4):
     """Eqs. 22-25: Gaussian memberships, 49 product rules, linear output layer.
 
@@ -123,6 +150,8 @@ def frbf_learn(x1, x2, g, c, b, w, dc, db, dw, f3, q, eta, mom, bmin):
     """Eqs. 26-27: one gradient-descent-with-momentum step on ``w``, ``c`` and ``b``.
 
     ``g[m] = dE/df4_m`` (already chained through the PID and the plant-Jacobian sign).
+    Over the memberships ``f2 = exp(-(x - c)^2 / b^2)``: ``df2/dc = 2 (x - c) / b^2 f2``,
+    ``df2/db = 2 (x - c)^2 / b^3 f2``.
     Every parameter moves by ``-eta dE/dp + mom (p_{n-1} - p_{n-2})``; ``dc, db, dw`` hold
     the previous moves.  Widths are kept >= ``bmin`` so the memberships stay defined.
     """
@@ -189,15 +218,16 @@ def _clip1(x):
 
 @register_jitable
 def run_design(
-    i, ref1, ref2, noise, par, c0, b0, out_ch, out_th, summary, status, record, pp, ps
+    i, ref1, ref2, noise, par, c0, b0, out_ch, out_th, out_gain, summary, status, record,
+    pp, ps,
 ):
     """Simulate design ``i`` for ``ref1.shape[1]`` samples and write its outputs.
 
-    One sample n: measure (+N_m), control (FRBF-PID or PID on x, PID on y), apply the
-    commanded force + N_ele + f_D - f_B (f_B^s rotated into frames a and b), measure the
-    acceleration at t_n (+N_acc; ``k r_n`` plus the force held over [t_n, t_{n+1}), or
-    its interval average when a delayed command switches inside the step), form the
-    regression of Eqs. 10-15, update the RLS, and
+    One sample n: measure (+N_m), control (FRBF-PID or PID on x, the filtered PID on y),
+    apply the commanded force + N_ele + f_D - f_B (f_B^s rotated into frames a and b),
+    measure the acceleration at t_n (+N_acc; ``k r_n`` plus the force held over [t_n,
+    t_{n+1}), or its interval average when a delayed command switches inside the step),
+    form the regression of Eqs. 10-15, update the RLS on the identified columns, and
     advance the state exactly to t_{n+1}.  On divergence (|r| > bound, non-finite force or
     estimate) the design stops and its remaining samples hold their last values.
 
@@ -225,12 +255,16 @@ def run_design(
     pos = np.zeros(4)
     vel = np.zeros(4)
     meas = np.zeros(4)
+    meas_prev = np.zeros(4)  # y_{n-1} of the online Jacobian estimate
     pos_n = np.zeros(4)
     u = np.zeros(4)
     e1 = np.zeros(4)
     e2 = np.zeros(4)
-    ge1 = np.zeros(2)  # normalised error history of the FRBF learning
-    ge2 = np.zeros(2)
+    dfilt = np.zeros(4)  # filtered derivative term D_{n-1} of the non-sensitive PID
+    gains = np.empty(N_GAIN)
+    for a in range(2):
+        for m in range(3):
+            gains[3 * a + m] = par[P_XGAIN + m]
     c = np.empty((2, 2, N_MF))
     b = np.empty((2, 2, N_MF))
     for t in range(2):
@@ -250,7 +284,9 @@ def run_design(
     theta = np.zeros(N_THETA)
     P = np.zeros((N_THETA, N_THETA))
     for k in range(N_THETA):
-        P[k, k] = par[P_P0]
+        # a column left out has zero prior covariance: its estimate never moves and it
+        # adds exact zeros to every sum, so the others follow the reduced RLS bit for bit
+        P[k, k] = par[P_P0] * par[P_MASK + k]
     psi = np.empty(N_THETA)
     ppsi = np.empty(N_THETA)
     acc = np.empty(4)
@@ -263,6 +299,7 @@ def run_design(
         ref[0] = ref1[i, n]
         ref[1] = ref2[i, n]
         for a in range(4):
+            meas_prev[a] = meas[a]
             if pert and pp[PP_READ] > 0.5:
                 meas[a] = _readout(a, pos, pp) + noise[a, n]
             else:
@@ -270,13 +307,18 @@ def run_design(
             e = ref[a] - meas[a]
             if a < 2 and frbf:
                 u[a] = _frbf_pid_axis(
-                    a, e, e1[a], e2[a], u[a], ge1, ge2, c[a], b[a], w[a], dc[a], db[a],
-                    dw[a], f2, f3, f4, q, g, par, dt,
+                    e, e1[a], e2[a], u[a], meas[a] - meas_prev[a], c[a], b[a], w[a], dc[a],
+                    db[a], dw[a], f2, f3, f4, q, g, gains, 3 * a, par, dt,
                 )
             elif a < 2:
                 u[a] = pid_increment(
                     e, e1[a], e2[a], u[a], par[P_XGAIN], par[P_XGAIN + 1], par[P_XGAIN + 2],
                     par[P_FMAX],
+                )
+            elif par[P_YFILT] > 0.0:
+                u[a], dfilt[a] = filtered_pid_increment(
+                    e, e1[a], u[a], dfilt[a], par[P_YGAIN], par[P_YGAIN + 1],
+                    par[P_YGAIN + 2], par[P_YFILT], par[P_FMAX],
                 )
             else:
                 u[a] = pid_increment(
@@ -331,10 +373,13 @@ def run_design(
         psi[4] = 1.0
         rls_update(theta, P, psi, y_reg / par[P_SOUT], par[P_LAM], ppsi)
         for k in range(N_THETA):
-            out_th[i, n, k] = theta[k] * par[P_SOUT] / psi_scale[k]
-            if not math.isfinite(out_th[i, n, k]):
-                code = BAD_ESTIMATE
-        _record(i, n, pos_n, meas, acc, u, par, ref, out_ch, summary, record)
+            if par[P_MASK + k] > 0.5:
+                out_th[i, n, k] = theta[k] * par[P_SOUT] / psi_scale[k]
+                if not math.isfinite(out_th[i, n, k]):
+                    code = BAD_ESTIMATE
+            else:
+                out_th[i, n, k] = math.nan  # not identified (SimulationConfig.rls_columns)
+        _record(i, n, pos_n, meas, acc, u, gains, par, ref, out_ch, out_gain, summary, record)
         if code == OK:
             for a in range(4):
                 if not (abs(pos[a]) <= par[P_BOUND]):  # also catches NaN
@@ -351,16 +396,21 @@ def run_design(
         if last < 0:
             last = 0
             for k in range(N_THETA):
-                out_th[i, 0, k] = 0.0
+                if par[P_MASK + k] > 0.5:
+                    out_th[i, 0, k] = 0.0
             if record:
                 for ch in range(N_CH):
                     out_ch[ch, i, 0] = 0.0
+                for ch in range(N_GAIN):
+                    out_gain[ch, i, 0] = 0.0
     for n in range(last + 1, n_steps):  # hold after divergence: finite, never NaN
         for k in range(N_THETA):
             out_th[i, n, k] = out_th[i, last, k]
         if record:
             for ch in range(N_CH):
                 out_ch[ch, i, n] = out_ch[ch, i, last]
+            for ch in range(N_GAIN):
+                out_gain[ch, i, n] = out_gain[ch, i, last]
 
 
 @register_jitable
@@ -489,42 +539,55 @@ def _rotation_terms(n, pos, vel, par, pp, ps, ax, ay, pw, pr, extra):
 
 @register_jitable
 def _frbf_pid_axis(
-    a, e, e1, e2, u_prev, ge1, ge2, c, b, w, dc, db, dw, f2, f3, f4, q, g, par, dt
+    e, e1, e2, u_prev, dy, c, b, w, dc, db, dw, f2, f3, f4, q, g, gains, at, par, dt
 ):
-    """FRBF-PID (Sec. 3.3) on sensitive axis ``a``: gains from the network, then learning.
+    """FRBF-PID (Sec. 3.3, Eqs. 22-28) on one sensitive axis; writes its gains at ``at``.
 
-    Inputs are ``e / e_scale`` and ``(de/dt) / ec_scale`` clipped to the centres' range
-    [-1, 1]; gains are ``base * clip(1 + f4, glo, ghi)``.  The learning step uses
-    ``E = e_norm^2 / 2`` with the plant Jacobian replaced by its sign (+1).
+    Inputs (Eq. 22) are ``e / e_scale`` and ``(de/dt) / ec_scale``, clipped to the
+    centres' range [-1, 1].  The network's outputs scale the paper's gain coefficients:
+    ``K_m = base_m clip(1 + f4_m, glo, ghi)`` (Eq. 28 with ``f4 = 0`` at ``w = 0``).
+
+    Learning (Eqs. 26-27) descends ``E = e~^2 / 2`` in normalised units, ``e~ = e /
+    e_scale`` (clipped) and ``u~ = u / F_max``::
+
+        dE/df4_m = -e~ J base_m d_m / F_max,   d = [e_n - e_{n-1}, e_n, e_n - 2e_{n-1} + e_{n-2}]
+
+    with ``J`` the plant-Jacobian sign (+1, or the online estimate ``sign(dy dU)``); it is
+    zero while the output sits at the limit (the applied force then does not depend on the
+    gains) and where the gain multiplier is clipped.
     """
     x1 = _clip1(e / par[P_ESCALE])
     x2 = _clip1((e - e1) / dt / par[P_ECSCALE])
     frbf_forward(x1, x2, c, b, w, f2, f3, f4)
     lo, hi = par[P_GLO], par[P_GHI]
-    kp = par[P_XGAIN] * min(max(1.0 + f4[0], lo), hi)
-    ki = par[P_XGAIN + 1] * min(max(1.0 + f4[1], lo), hi)
-    kd = par[P_XGAIN + 2] * min(max(1.0 + f4[2], lo), hi)
-    u = pid_increment(e, e1, e2, u_prev, kp, ki, kd, par[P_FMAX])
-    # dE/df4_m = -e * sign(dy/du) * du/dK_m * dK_m/df4_m (zero where the gain is clamped)
-    xc0 = x1 - ge1[a]
-    xc2 = x1 - 2.0 * ge1[a] + ge2[a]
-    g[0] = -x1 * xc0 * par[P_XGAIN]
-    g[1] = -x1 * x1 * par[P_XGAIN + 1]
-    g[2] = -x1 * xc2 * par[P_XGAIN + 2]
+    for m in range(3):
+        gains[at + m] = par[P_XGAIN + m] * min(max(1.0 + f4[m], lo), hi)
+    fmax = par[P_FMAX]
+    u = pid_increment(e, e1, e2, u_prev, gains[at], gains[at + 1], gains[at + 2], fmax)
+    jac = 1.0
+    if par[P_JAC] > 0.5:  # the classic online estimate sign(dy/du) from the last step
+        s = dy * (u - u_prev)
+        jac = 1.0 if s > 0.0 else (-1.0 if s < 0.0 else 0.0)
+    if abs(u) >= fmax:
+        jac = 0.0
+    common = -x1 * jac / fmax
+    g[0] = common * par[P_XGAIN] * (e - e1)
+    g[1] = common * par[P_XGAIN + 1] * e
+    g[2] = common * par[P_XGAIN + 2] * (e - 2.0 * e1 + e2)
     for m in range(3):
         if not (lo < 1.0 + f4[m] < hi):
             g[m] = 0.0
     frbf_learn(x1, x2, g, c, b, w, dc, db, dw, f3, q, par[P_ETA], par[P_MOM], par[P_BMIN])
-    ge2[a] = ge1[a]
-    ge1[a] = x1
     return u
 
 
 @register_jitable
-def _record(i, n, pos_n, meas, acc, u, par, ref, out_ch, summary, record):
-    """Store sample n (true state at t_n) and update the tracking-error summary.
+def _record(i, n, pos_n, meas, acc, u, gains, par, ref, out_ch, out_gain, summary, record):
+    """Store sample n (true state at t_n) and update the summary (layout: ``N_SUM``).
 
-    ``summary[i]`` = [max|r1 - x1|, max|r2 - x2|, the same over n >= P_STEADY (2)], true x.
+    ``summary[i]`` = [max|r1 - x1|, max|r2 - x2|, the same over n >= P_STEADY (2),
+    max|x1|, max|x2|, max|y1|, max|y2| (true motion), max|u| of x1, x2, y1, y2 (commanded,
+    after the output limit)].
     """
     for a in range(2):
         err = abs(ref[a] - pos_n[a])
@@ -532,22 +595,30 @@ def _record(i, n, pos_n, meas, acc, u, par, ref, out_ch, summary, record):
             summary[i, a] = err
         if n >= par[P_STEADY] and err > summary[i, 2 + a]:
             summary[i, 2 + a] = err
+    for a in range(4):
+        if abs(pos_n[a]) > summary[i, SUM_XMAX + a]:
+            summary[i, SUM_XMAX + a] = abs(pos_n[a])
+        if abs(u[a]) > summary[i, SUM_UMAX + a]:
+            summary[i, SUM_UMAX + a] = abs(u[a])
     if record:
         for a in range(4):
             out_ch[a, i, n] = pos_n[a]
             out_ch[4 + a, i, n] = meas[a]
             out_ch[8 + a, i, n] = acc[a]
             out_ch[12 + a, i, n] = u[a]
+        for k in range(N_GAIN):
+            out_gain[k, i, n] = gains[k]
 
 
 @nb.njit(parallel=True, cache=True)
 def batch_kernel(
-    ref1, ref2, noise, par, c0, b0, out_ch, out_th, summary, status, record, pp, ps
+    ref1, ref2, noise, par, c0, b0, out_ch, out_th, out_gain, summary, status, record, pp, ps
 ):
     """All designs of a batch in parallel (one design per thread iteration)."""
     for i in nb.prange(ref1.shape[0]):
         run_design(
-            i, ref1, ref2, noise, par, c0, b0, out_ch, out_th, summary, status, record, pp, ps
+            i, ref1, ref2, noise, par, c0, b0, out_ch, out_th, out_gain, summary, status,
+            record, pp, ps,
         )
 
 

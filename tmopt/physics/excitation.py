@@ -6,13 +6,28 @@ import math
 
 import numpy as np
 
-__all__ = ["MultiSine", "sample_times"]
+__all__ = ["MultiSine", "sample_times", "ramp_window"]
 
 
 def sample_times(duration: float, sample_rate: float) -> np.ndarray:
     """Sampling instants ``t_n = n / f_s``, ``n = 0 .. N-1`` with ``N = round(duration f_s)``."""
     n = int(round(duration * sample_rate))
     return np.arange(n, dtype=np.float64) / sample_rate
+
+
+def ramp_window(t: np.ndarray, ramp: float) -> np.ndarray:
+    """Raised-cosine start ``w(t) = (1 - cos(pi t / ramp)) / 2`` for ``t < ramp``, then 1.
+
+    Multiplying a reference by it makes the reference start with zero displacement,
+    velocity and acceleration (``w(0) = w'(0) = 0``) and adds at most ``pi / (2 ramp)``
+    times the reference's velocity and ``pi^2 / (2 ramp^2)`` times its displacement to the
+    acceleration it demands.  ``ramp = 0`` gives ones.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    if ramp <= 0:
+        return np.ones_like(t)
+    s = np.clip(t / ramp, 0.0, 1.0)
+    return 0.5 * (1.0 - np.cos(np.pi * s))
 
 
 def _as_2d(name: str, value: object) -> np.ndarray:

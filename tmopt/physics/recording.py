@@ -23,8 +23,6 @@ import hashlib
 import io
 import json
 import math
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -32,6 +30,7 @@ from typing import Any, Literal
 import h5py
 import numpy as np
 
+from tmopt.files import atomic_write
 from tmopt.physics.geometry import Geometry
 
 __all__ = [
@@ -583,29 +582,6 @@ def write_recording(
         atomic_write(sidecar_path(path), lambda tmp: Path(tmp).write_text(attrs, encoding="utf-8"))
         atomic_write(path, lambda tmp: Path(tmp).write_bytes(body))
     return path
-
-
-def atomic_write(path: Path, write: Any) -> None:
-    """Call ``write(tmp)`` on a temporary file next to ``path``, then rename it into place.
-
-    The file is made ``0o644`` (mkstemp's 0o600 would hide recordings from the other
-    users of a shared folder; reading the umask would need a process-wide, racy call).
-    """
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
-    try:
-        os.chmod(tmp, 0o644)
-        write(tmp)
-        with open(tmp, "rb") as fh:
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.remove(tmp)
-        except OSError:
-            pass
-        raise
 
 
 def _ordered(rec: Recording) -> list[str]:

@@ -8,9 +8,12 @@ setting means one physics on every route.
 * :func:`config_at_rate` -- the sample-rate rule: :class:`SimulationConfig`'s defaults are
   the paper's 10 Hz design (Table 1 per-sample noise sigmas, Sec. 4.2 per-sample PID gains);
   at another rate the sigmas scale with ``sqrt(fs / 10 Hz)`` (same noise ASDs) and the
-  incremental-PID gains are rescaled to the same continuous gains (docs/decisions.md).
+  incremental-PID gains are rescaled to the same continuous gains
+  (:func:`tmopt.physics.control.rate_scaled_gains`; docs/decisions.md).  It also applies
+  the named non-sensitive-axis settings of :data:`Y_AXES`.
 * :class:`Settings` and :func:`simulation_config` -- a whole run (duration, rate,
-  excitation spec, noise scale, controller, stiffness and bias truths).
+  excitation spec, noise scale, controller, stiffness and bias truths, and the physics
+  options ``ramp_in``, ``rls_columns``, ``y_axes``, ``jacobian``).
 * :func:`excitation` -- the reference motions named by a spec string (``paper``,
   ``multisine:...``, ``chirp:...``, ``steps:...``, ``none``).
 """
@@ -23,49 +26,70 @@ from typing import Any
 
 import numpy as np
 
+from tmopt.physics.control import PAPER_RATE, ControllerSettings, rate_scaled_gains
 from tmopt.physics.geometry import Geometry
 from tmopt.physics.recording import AXES
 from tmopt.physics.simulator import SimulationConfig
 
-__all__ = ["PAPER_RATE", "Settings", "config_at_rate", "rescale_gains", "simulation_config",
-           "excitation"]  # fmt: skip
+__all__ = ["PAPER_RATE", "MIN_SAMPLE_RATE", "Y_AXES", "Settings", "config_at_rate",
+           "simulation_config", "excitation"]  # fmt: skip
 
-#: The sample rate of the paper's design (Sec. 4.1) [Hz]: SimulationConfig's per-sample
-#: noise sigmas and PID gains are those of this rate.
-PAPER_RATE = 10.0
+#: Lowest sample rate of the rule [Hz]: the 10 Hz design's loops, rescaled, are stable
+#: from here to 1 kHz; below, the sample delay u_n -> x_{n+1} destabilises them (poles of
+#: closed_loop_poles: the sensitive-axis PID below 0.948 Hz, the drag-free y loop below
+#: 0.690 Hz; test_rescaled_controller_is_stable_at_every_rate,
+#: test_the_rule_rejects_unstable_rates).
+MIN_SAMPLE_RATE = 1.0
 F_MAX = SimulationConfig.f_max  # actuator limit [m s^-2]
 REF_LIMIT = SimulationConfig.alpha2 * SimulationConfig.gap  # alpha2 D of Eq. 20 [m]
 #: Per-sample noise sigmas of SimulationConfig that follow the rate rule (Table 1 and f_B).
 NOISE_FIELDS = ("sigma_m1", "sigma_m2", "sigma_acc", "sigma_ele", "fb_sigma")
+
+#: Non-sensitive axes and spacecraft acceleration, by name (docs/decisions.md,
+#: "Non-sensitive axes"): ``drag_free`` -- Table 1 (no f_B) and a PID holding y as a
+#: drag-free suspension loop would (the defaults of SimulationConfig and
+#: ControllerSettings); ``round1`` -- the first round's f_B (1e-10 m s^-2 bias + 1e-10
+#: m s^-2 white, frame s) and its 10x slower y PID.
+#: Gains and ``fb_sigma`` are per sample at the paper's 10 Hz: :func:`config_at_rate`
+#: converts them to the run's rate like every other 10 Hz value.
+Y_AXES: dict[str, dict[str, Any]] = {
+    "drag_free": {"fb_bias": SimulationConfig.fb_bias, "fb_sigma": SimulationConfig.fb_sigma,
+                  "y_gains": ControllerSettings.y_gains,
+                  "y_derivative_filter": ControllerSettings.y_derivative_filter},
+    "round1": {"fb_bias": (1e-10, 1e-10), "fb_sigma": 1e-10, "y_gains": (0.005, 1e-5, 1.0),
+               "y_derivative_filter": 0.0},
+}  # fmt: skip
 
 
 # --------------------------------------------------------------------------- the rate rule
 
 
 def config_at_rate(sample_rate: float = PAPER_RATE, noise_scale: float = 1.0,
-                   **fields: Any) -> SimulationConfig:  # fmt: skip
+                   y_axes: str | None = None, **fields: Any) -> SimulationConfig:  # fmt: skip
     """:class:`SimulationConfig` at ``sample_rate`` by the one sample-rate rule.
 
     Noise: every per-sample sigma of :data:`NOISE_FIELDS` (Table 1 at 10 Hz, and f_B)
     times ``noise_scale * sqrt(fs / 10 Hz)``: white noise of one-sided ASD ``S`` has the
     per-sample sigma ``S sqrt(fs / 2)``, so the ASDs stay those of the 10 Hz design.
     Control: the per-sample incremental-PID gains (sensitive and non-sensitive axes) are
-    rescaled by :func:`rescale_gains` to keep the continuous gains of the 10 Hz design;
-    the loop stays stable from 0.01 Hz to 1 kHz
-    (test_rescaled_controller_is_stable_at_every_rate).  At 10 Hz and ``noise_scale`` 1
-    this is ``SimulationConfig(**fields)`` exactly.
+    rescaled by :func:`tmopt.physics.control.rate_scaled_gains` to keep the continuous
+    gains of the 10 Hz design; the loops are stable from :data:`MIN_SAMPLE_RATE` to 1 kHz
+    (test_rescaled_controller_is_stable_at_every_rate) and slower rates are rejected.  At
+    10 Hz and ``noise_scale`` 1 this is ``SimulationConfig(**fields)`` exactly.
 
     Args:
-        sample_rate: Sampling rate fs [Hz], in (0, inf).
+        sample_rate: Sampling rate fs [Hz], in [MIN_SAMPLE_RATE, inf).
         noise_scale: Factor on every noise sigma, in [0, inf).
+        y_axes: A name of :data:`Y_AXES` (non-sensitive-axis PID and spacecraft
+            acceleration f_B), or None for ``control``'s y loop and the f_B fields as
+            given (default: none).  ``fb_bias`` / ``fb_sigma`` given explicitly override
+            the named setting's f_B.
         fields: Any other :class:`SimulationConfig` field (duration, controller,
-            stiffness, geometry, record, ...).  ``control`` and the sigmas of
-            :data:`NOISE_FIELDS`, when given, are those of the 10 Hz design and are
-            rescaled like the defaults.
+            stiffness, geometry, record, ramp_in, rls_columns, ...).  ``control`` and the
+            sigmas of :data:`NOISE_FIELDS`, when given, are those of the 10 Hz design and
+            are rescaled like the defaults.
     """
-    if not (isinstance(sample_rate, (int, float)) and math.isfinite(sample_rate)
-            and sample_rate > 0):  # fmt: skip
-        raise ValueError(f"sample_rate must be finite and in (0, inf) Hz; got {sample_rate!r}")
+    _check_sample_rate(sample_rate)
     if not (isinstance(noise_scale, (int, float)) and math.isfinite(noise_scale)
             and noise_scale >= 0):  # fmt: skip
         raise ValueError(f"noise_scale must be finite and in [0, inf); got {noise_scale!r}")
@@ -73,17 +97,24 @@ def config_at_rate(sample_rate: float = PAPER_RATE, noise_scale: float = 1.0,
     scale = noise_scale * math.sqrt(fs / PAPER_RATE)
     design = SimulationConfig()  # the 10 Hz design's defaults
     control = fields.pop("control", design.control)
-    ctl = replace(control, base_gains=rescale_gains(control.base_gains, fs),
-                  y_gains=rescale_gains(control.y_gains, fs))  # fmt: skip
+    if y_axes is not None:
+        if y_axes not in Y_AXES:
+            raise ValueError(f"y_axes must be one of {sorted(Y_AXES)}; got {y_axes!r}")
+        spec = Y_AXES[y_axes]
+        control = replace(control, y_gains=spec["y_gains"],
+                          y_derivative_filter=spec["y_derivative_filter"])  # fmt: skip
+        fields = {"fb_bias": spec["fb_bias"], "fb_sigma": spec["fb_sigma"], **fields}
+    ctl = replace(control, base_gains=rate_scaled_gains(control.base_gains, fs),
+                  y_gains=rate_scaled_gains(control.y_gains, fs))  # fmt: skip
     noise = {k: fields.pop(k, getattr(design, k)) * scale for k in NOISE_FIELDS}
     return SimulationConfig(sample_rate=fs, control=ctl, **noise, **fields)
 
 
-def rescale_gains(gains: tuple[float, float, float], fs: float) -> tuple[float, float, float]:
-    """Per-sample ``(Kp, Ki, Kd)`` of the 10 Hz design -> those at ``fs`` with the same
-    continuous gains ``P = Kp``, ``I = Ki/dt``, ``D = Kd dt`` (Eq. 28 taken per sample)."""
-    r = PAPER_RATE / fs  # dt / dt_paper
-    return (gains[0], gains[1] * r, gains[2] / r)
+def _check_sample_rate(fs: Any) -> None:
+    if not (isinstance(fs, (int, float)) and math.isfinite(fs) and fs >= MIN_SAMPLE_RATE):
+        raise ValueError(f"sample_rate must be finite and in [{MIN_SAMPLE_RATE:g}, inf) Hz "
+                         f"(the rescaled 10 Hz controller is unstable below 0.95 Hz); "
+                         f"got {fs!r}")  # fmt: skip
 
 
 # --------------------------------------------------------------------------- settings
@@ -91,14 +122,18 @@ def rescale_gains(gains: tuple[float, float, float], fs: float) -> tuple[float, 
 
 @dataclass(frozen=True)
 class Settings:
-    """Run settings; defaults are the paper's (Table 1, Sec. 4.1, Fig. 6 motion).
+    """Run settings; defaults are the paper's (Table 1, Sec. 4.1, Fig. 6 motion) and the
+    simulator's physics options (docs/decisions.md).
 
     ``stiffness`` = (k1xx, k2xx, k1yy, k2yy) [s^-2], ``bias`` = (fD1x, fD2x, fD1y, fD2y)
     [m s^-2].  ``noise_scale`` multiplies every Table 1 noise and the f_B noise;
     at other sample rates the per-sample sigmas scale with sqrt(fs / 10 Hz) so the noise
-    ASDs stay those of Table 1.  ``witnesses``: write the six ``sc_omega*`` channels in
-    every recording (zeros when the spacecraft does not rotate), so their presence
-    reveals nothing.
+    ASDs stay those of Table 1.  ``ramp_in`` [s] (raised-cosine start of every reference),
+    ``rls_columns`` (a name of ``RLS_COLUMN_SETS`` or a tuple of theta names), ``y_axes``
+    (a name of :data:`Y_AXES`) and ``jacobian`` (the FRBF-PID's plant-Jacobian sign) are
+    the physics options of :class:`SimulationConfig` and ``ControllerSettings``.
+    ``witnesses``: write the six ``sc_omega*`` channels in every recording (zeros when the
+    spacecraft does not rotate), so their presence reveals nothing.
     """
 
     duration: float = 1200.0
@@ -108,14 +143,18 @@ class Settings:
     controller: str = "frbf_pid"
     stiffness: tuple[float, float, float, float] = (1e-7, 1e-7, 1e-7, 1e-7)
     bias: tuple[float, float, float, float] = (1e-10, 1e-10, 1e-10, 1e-10)
+    ramp_in: float = SimulationConfig.ramp_in
+    rls_columns: str | tuple[str, ...] = "sensitive"
+    y_axes: str = "drag_free"
+    jacobian: str = "plus"
     witnesses: bool = True
     description: str = ""
 
     def __post_init__(self) -> None:
-        for name in ("duration", "sample_rate"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a finite number in (0, inf); got {v!r}")
+        v = self.duration
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            raise ValueError(f"duration must be a finite number in (0, inf); got {v!r}")
+        _check_sample_rate(self.sample_rate)
         if self.duration * self.sample_rate < 64:
             raise ValueError(f"duration * sample_rate must be >= 64 samples; got "
                              f"{self.duration * self.sample_rate:g}")  # fmt: skip
@@ -125,19 +164,27 @@ class Settings:
             v = tuple(getattr(self, name))
             if len(v) != 4 or not all(math.isfinite(x) for x in v):
                 raise ValueError(f"{name} must be 4 finite numbers {list(AXES)}; got {v!r}")
+        # the physics options (ramp_in, rls_columns, y_axes, jacobian): checked where they
+        # are defined, by building the run's configuration (cheap; nothing is simulated)
+        simulation_config(self, Geometry())
 
 
-
-def simulation_config(settings: Settings, geometry: Geometry) -> SimulationConfig:
+def simulation_config(settings: Settings, geometry: Geometry, **fields: Any) -> SimulationConfig:
     """The simulator's configuration for ``settings`` and the *true* geometry, by the
-    sample-rate rule of :func:`config_at_rate`."""
+    sample-rate rule of :func:`config_at_rate`; ``fields`` are further
+    :class:`SimulationConfig` fields at their 10 Hz values (e.g. the recording
+    generator's spacecraft acceleration ``fb_bias`` / ``fb_sigma``)."""
+    rls = settings.rls_columns
     return config_at_rate(
-        settings.sample_rate, settings.noise_scale, duration=float(settings.duration),
-        controller=settings.controller,
+        settings.sample_rate, settings.noise_scale, y_axes=settings.y_axes,
+        duration=float(settings.duration), controller=settings.controller,
         stiffness_1=(settings.stiffness[0], settings.stiffness[2]),
         stiffness_2=(settings.stiffness[1], settings.stiffness[3]),
         bias_1=(settings.bias[0], settings.bias[2]), bias_2=(settings.bias[1], settings.bias[3]),
         geometry=geometry, steady_after=min(300.0, float(settings.duration)),
+        control=ControllerSettings(jacobian=settings.jacobian),
+        ramp_in=float(settings.ramp_in), rls_columns=rls if isinstance(rls, str) else tuple(rls),
+        **fields,
     )  # fmt: skip
 
 

@@ -14,10 +14,11 @@ from typing import Literal
 import numpy as np
 
 from tmopt.physics import _closed_loop as cl
-from tmopt.physics.control import CONTROLLERS, ControllerSettings
-from tmopt.physics.excitation import MultiSine, sample_times
+from tmopt.physics.control import CONTROLLERS, ControllerSettings, derivative_filter_pole
+from tmopt.physics.excitation import MultiSine, ramp_window, sample_times
 from tmopt.physics.geometry import Geometry
 from tmopt.physics.noise import noise_realisation, noise_sigmas
+from tmopt.physics.objectives import PARAMETERS
 
 __all__ = [
     "SimulationConfig",
@@ -25,7 +26,9 @@ __all__ = [
     "Perturbations",
     "simulate",
     "CHANNEL_NAMES",
+    "GAIN_NAMES",
     "REASONS",
+    "RLS_COLUMN_SETS",
 ]
 
 #: Recorded per-design channels, in the kernel's order.
@@ -35,6 +38,15 @@ CHANNEL_NAMES: tuple[str, ...] = (
     "acc_x1", "acc_x2", "acc_y1", "acc_y2",
     "force_x1", "force_x2", "force_y1", "force_y2",
 )  # fmt: skip
+
+#: Recorded gains of the two sensitive-axis controllers (FRBF-PID: adapted, PID: fixed).
+GAIN_NAMES: tuple[str, ...] = ("Kp_x1", "Ki_x1", "Kd_x1", "Kp_x2", "Ki_x2", "Kd_x2")
+
+#: Named sets of identified columns of theta (Eqs. 10-15); docs/decisions.md, "RLS columns".
+RLS_COLUMN_SETS: dict[str, tuple[str, ...]] = {
+    "all": PARAMETERS,
+    "sensitive": ("k1xx", "k2xx", "R"),
+}
 
 #: Divergence reasons by status code.
 REASONS: dict[int, str] = {
@@ -65,9 +77,15 @@ class SimulationConfig:
 
     Stiffness and bias pairs are ``(sensitive x, non-sensitive y)`` per test mass, in its
     own frame.  ``fb_bias`` / ``fb_sigma`` model the spacecraft acceleration f_B in frame s
-    (not in Table 1; see docs/decisions.md).  ``rls_scales`` = (x scale [m], y scale [m],
-    output scale [m s^-2]) normalise the regression internally; ``rls_p0`` is the initial
-    covariance in those scaled units.
+    (not in Table 1, so 0 by default; ``tmopt.physics.scenario.Y_AXES`` names the round-one
+    setting).
+    ``rls_scales`` = (x scale [m], y scale [m], output scale [m s^-2]) normalise the
+    regression internally; ``rls_p0`` is the initial covariance in those scaled units.
+    ``rls_columns`` are the entries of ``theta = [k1xx, k2xx, k1yy, k2yy, R]`` the RLS
+    identifies (the others get NaN estimates; their terms stay in the equation error);
+    a name of :data:`RLS_COLUMN_SETS` is accepted too.  ``ramp_in`` [s] starts every
+    reference smoothly: it is multiplied by a raised-cosine ramp from 0 to 1 over the
+    first ``ramp_in`` seconds (0: the reference as given).
     """
 
     sample_rate: float = 10.0
@@ -81,8 +99,8 @@ class SimulationConfig:
     sigma_m2: float = 1e-8
     sigma_acc: float = 1e-12
     sigma_ele: float = 1e-12
-    fb_bias: tuple[float, float] = (1e-10, 1e-10)
-    fb_sigma: float = 1e-10
+    fb_bias: tuple[float, float] = (0.0, 0.0)
+    fb_sigma: float = 0.0
     geometry: Geometry = field(default_factory=Geometry)
     control: ControllerSettings = field(default_factory=ControllerSettings)
     f_max: float = 1e-7
@@ -92,6 +110,8 @@ class SimulationConfig:
     rls_lambda: float = 1.0
     rls_p0: float = 1e6
     rls_scales: tuple[float, float, float] = (1e-5, 1e-8, 1e-12)
+    rls_columns: tuple[str, ...] = ("k1xx", "k2xx", "R")
+    ramp_in: float = 90.0
     divergence_bound: float = 4e-3
     steady_after: float = 300.0
     record: Literal["full", "estimates"] = "full"
@@ -120,6 +140,17 @@ class SimulationConfig:
             raise ValueError(f"rls_scales must be 3 numbers > 0; got {self.rls_scales!r}")
         for v in self.rls_scales:
             _positive("rls_scales", v)
+        columns = RLS_COLUMN_SETS.get(self.rls_columns, self.rls_columns) \
+            if isinstance(self.rls_columns, str) else self.rls_columns
+        columns = tuple(columns)
+        if not columns or any(c not in PARAMETERS for c in columns) \
+                or len(set(columns)) != len(columns):
+            raise ValueError(f"rls_columns must be distinct names from {PARAMETERS} or one of "
+                             f"{sorted(RLS_COLUMN_SETS)}; got {self.rls_columns!r}")
+        object.__setattr__(self, "rls_columns", tuple(c for c in PARAMETERS if c in columns))
+        if not (isinstance(self.ramp_in, (int, float)) and math.isfinite(self.ramp_in)
+                and 0 <= self.ramp_in):
+            raise ValueError(f"ramp_in must be finite and in [0, inf) s; got {self.ramp_in!r}")
         if not (math.isfinite(self.steady_after) and 0 <= self.steady_after):
             raise ValueError(f"steady_after must be in [0, inf) s; got {self.steady_after!r}")
         if self.record not in ("full", "estimates"):
@@ -153,6 +184,11 @@ class SimulationConfig:
         fd = np.array([self.bias_1[0], self.bias_2[0], self.bias_1[1], self.bias_2[1]])
         k = [self.stiffness_1[0], self.stiffness_2[0], self.stiffness_1[1], self.stiffness_2[1]]
         return np.array(k + [float(self.coefficients @ fd)])
+
+    @property
+    def identified(self) -> np.ndarray:
+        """Boolean mask (5,) of the theta columns the RLS identifies."""
+        return np.array([p in self.rls_columns for p in PARAMETERS])
 
     def sigmas(self) -> np.ndarray:
         return noise_sigmas(
@@ -288,6 +324,11 @@ class SimulationResult:
     time [s] (NaN-free: -1 when fine).  After divergence every channel holds its last
     value.  ``max_tracking_error`` / ``steady_tracking_error`` (B, 2) are ``max|r - x|``
     (true x) of TM1/TM2 over the whole run and over ``t >= config.steady_after``.
+    ``max_abs_position`` (B, 4) is the realised ``max|r|`` of x1, x2, y1, y2 (true motion)
+    and ``max_abs_command`` (B, 4) the largest commanded force (after the output limit)
+    per axis: the quantities of Eq. 20 on the simulated run.  ``gains`` (6, B, N) holds the
+    sensitive-axis gains in :data:`GAIN_NAMES` order (``None`` when only estimates are
+    recorded).  ``theta_hat`` is NaN in the columns the RLS does not identify.
     ``perturbations`` is what the run was given (None: the nominal model).
     """
 
@@ -301,6 +342,9 @@ class SimulationResult:
     diverged_at: np.ndarray
     max_tracking_error: np.ndarray
     steady_tracking_error: np.ndarray
+    max_abs_position: np.ndarray
+    max_abs_command: np.ndarray
+    gains: np.ndarray | None
     config: SimulationConfig
     seed: int
     perturbations: Perturbations | None = None
@@ -323,26 +367,34 @@ class SimulationResult:
 
     def design(self, i: int) -> dict[str, np.ndarray]:
         """Design ``i`` as 1-D channels: time, x1..y2 (measured), *_true, acc_*, force_*,
-        ref_x1, ref_x2, and theta_hat (N, 5)."""
+        the gains (:data:`GAIN_NAMES`), ref_x1, ref_x2, and theta_hat (N, 5)."""
         out = {"time": self.time, "ref_x1": self.ref_x1[i], "ref_x2": self.ref_x2[i]}
         if self.channels is not None:
             for k, name in enumerate(CHANNEL_NAMES):
                 out[name] = self.channels[k, i]
+        if self.gains is not None:
+            for k, name in enumerate(GAIN_NAMES):
+                out[name] = self.gains[k, i]
         out["theta_hat"] = self.theta_hat[i]
         return out
 
 
 def _reference(name: str, ref: MultiSine | np.ndarray, t: np.ndarray, cfg: SimulationConfig):
+    """The reference the loop tracks, (B, N): as given, times the start ramp if any."""
     if isinstance(ref, MultiSine):
         ref.check_nyquist(cfg.sample_rate)
-        return np.ascontiguousarray(ref.evaluate(t))
-    arr = np.asarray(ref, dtype=np.float64)
-    if arr.ndim == 1:
-        arr = arr[None, :]
-    if arr.ndim != 2 or arr.shape[1] != t.size:
-        raise ValueError(f"{name} must be a MultiSine or an array (B, {t.size}); got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite (no NaN/inf)")
+        arr = ref.evaluate(t)
+    else:
+        arr = np.asarray(ref, dtype=np.float64)
+        if arr.ndim == 1:
+            arr = arr[None, :]
+        if arr.ndim != 2 or arr.shape[1] != t.size:
+            raise ValueError(f"{name} must be a MultiSine or an array (B, {t.size}); "
+                             f"got {arr.shape}")  # fmt: skip
+        if not np.all(np.isfinite(arr)):
+            raise ValueError(f"{name} must be finite (no NaN/inf)")
+    if cfg.ramp_in > 0:
+        arr = arr * ramp_window(t, cfg.ramp_in)[None, :]
     return np.ascontiguousarray(arr)
 
 
@@ -372,6 +424,9 @@ def _pack_parameters(cfg: SimulationConfig) -> np.ndarray:
     par[cl.P_BOUND] = cfg.divergence_bound
     par[cl.P_FRBF] = 1.0 if cfg.controller == "frbf_pid" else 0.0
     par[cl.P_STEADY] = math.ceil(cfg.steady_after * cfg.sample_rate - 1e-9)
+    par[cl.P_YFILT] = derivative_filter_pole(ctl.y_derivative_filter, cfg.dt)
+    par[cl.P_JAC] = 1.0 if ctl.jacobian == "online" else 0.0
+    par[cl.P_MASK : cl.P_MASK + cl.N_THETA] = cfg.identified
     return par
 
 
@@ -406,7 +461,8 @@ def prepare(
         # every sample is written by the kernel (or held after divergence): no zero-fill
         "out_ch": np.empty((cl.N_CH, b, n) if record else (cl.N_CH, 1, 1)),
         "out_th": np.empty((b, n, cl.N_THETA)),
-        "summary": np.zeros((b, 4)),
+        "out_gain": np.empty((cl.N_GAIN, b, n) if record else (cl.N_GAIN, 1, 1)),
+        "summary": np.zeros((b, cl.N_SUM)),
         "status": np.zeros((b, 2), dtype=np.int64),
         "record": record,
         "pp": pp,
@@ -434,15 +490,18 @@ def _finish(io: dict, config: SimulationConfig, seed: int) -> SimulationResult:
         reason=reasons,
         diverged_at=np.where(diverged, last / config.sample_rate, -1.0),
         max_tracking_error=io["summary"][:, :2].copy(),
-        steady_tracking_error=io["summary"][:, 2:].copy(),
+        steady_tracking_error=io["summary"][:, 2:4].copy(),
+        max_abs_position=io["summary"][:, cl.SUM_XMAX : cl.SUM_XMAX + 4].copy(),
+        max_abs_command=io["summary"][:, cl.SUM_UMAX : cl.SUM_UMAX + 4].copy(),
+        gains=io["out_gain"] if io["record"] else None,
         config=config,
         seed=int(seed),
         perturbations=io["perturbations"],
     )
 
 
-_KERNEL_ARGS = ("ref1", "ref2", "noise", "par", "c0", "b0", "out_ch", "out_th", "summary",
-                "status", "record", "pp", "ps")  # fmt: skip
+_KERNEL_ARGS = ("ref1", "ref2", "noise", "par", "c0", "b0", "out_ch", "out_th", "out_gain",
+                "summary", "status", "record", "pp", "ps")  # fmt: skip
 
 
 def simulate(

@@ -8,7 +8,7 @@ priority number are the *key individual constraints* that MGSAEA-IPC satisfies f
 (paper Sec. 3.2.2). Problems without a natural grouping get one group holding every
 constraint.
 
-Budget counting, archiving and failure handling live in :mod:`tmopt.problems.evaluator`,
+Budget counting, archiving and failure handling live in :mod:`tmopt.evaluation.evaluator`,
 so a problem only has to compute its objectives.
 """
 

@@ -29,7 +29,7 @@ class BinhKorn(ExpensiveProblem):
         grouped: Put g1 and g2 in separate constraint groups (g1 first) instead of one.
     """
 
-    def __init__(self, front_points: int = 500, grouped: bool = True) -> None:
+    def __init__(self, *, front_points: int = 500, grouped: bool = True) -> None:
         if isinstance(front_points, bool) or not isinstance(front_points, int) \
                 or front_points < 2:
             raise ValueError(f"problem bnh: front_points must be an integer >= 2, "

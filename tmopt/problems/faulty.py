@@ -32,7 +32,7 @@ class FaultyProblem(ExpensiveProblem):
         name: Problem name.
     """
 
-    def __init__(self, base: str = "mw1", n_var: int | None = None,
+    def __init__(self, *, base: str = "mw1", n_var: int | None = None,
                  raise_band: Sequence[float] | None = None,
                  nan_band: Sequence[float] | None = None,
                  hang_band: Sequence[float] | None = None,

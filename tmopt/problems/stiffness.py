@@ -20,9 +20,13 @@ then satisfied by construction and are not part of the problem (paper Sec. 4.4).
 
 Objectives: convergence time (Eq. 18) and convergence accuracy (Eq. 19) of the
 identified sensitive-axis stiffness, computed by the batched simulator (:mod:`tmopt.physics`).
-Constraints: Eq. 20 per test mass, normalised by their limits so both are O(1):
-``g1 = sum_i A_i w_i^2 / (alpha1 F_max) - 1`` and ``g2 = max_t |x_ref(t)| / (alpha2 D) - 1``.
-They form one constraint group per test mass; the group of the key test mass (TM1 by
+Constraints: Eq. 20 per test mass on the simulated run (``constraints="realised"``, the
+default), normalised by their limits so both are O(1): ``g1 = max_t |u(t)| / (alpha1
+F_max) - 1`` (largest commanded sensitive-axis force) and ``g2 = max_t |x(t)| / (alpha2 D)
+- 1`` (largest true displacement, start-up transient included); ``constraints="reference"``
+evaluates them on the reference instead (``sum_i A_i w_i^2`` and ``max_t |x_ref(t)|``, no
+simulation needed).  They form one constraint group per test mass; the group of the key
+test mass (TM1 by
 default: the one whose stiffness is identified) has priority 0 — the "key individual
 constraints" of MGSAEA-IPC. A design whose closed loop diverges is reported as failed
 with the simulator's reason (the evaluator then treats it as infeasible).
@@ -38,9 +42,10 @@ import numpy as np
 
 from tmopt.metrics.identification import metric_m_at_threshold
 from tmopt.physics import objectives as phys_obj
+from tmopt.physics.control import ControllerSettings
 from tmopt.physics.excitation import MultiSine
 from tmopt.physics.scenario import config_at_rate
-from tmopt.physics.simulator import SimulationResult, simulate
+from tmopt.physics.simulator import SimulationConfig, SimulationResult, simulate
 from tmopt.problems.base import ConstraintGroup, ExpensiveProblem
 
 SCHEMES = {
@@ -51,6 +56,8 @@ SCHEMES = {
 }
 #: Convergence thresholds for the stricter M of Table 3.
 STRICT_THRESHOLDS = (7e-11, 5e-11)
+#: Where Eq. 20 is evaluated: on the simulated run or on the reference motion.
+CONSTRAINT_MODES = ("realised", "reference")
 
 
 class StiffnessProblem(ExpensiveProblem):
@@ -73,12 +80,23 @@ class StiffnessProblem(ExpensiveProblem):
             ``"frbf_pid"`` or ``"pid"``,
             F_max [m s^-2], alpha1, electrode gap D [m], alpha2.
         stiffness_1, stiffness_2: True (x, y) stiffness of TM1 and TM2 [s^-2] (Table 1).
+        constraints: ``"realised"`` (Eq. 20 on the simulated motion and commanded force)
+            or ``"reference"`` (on the reference motion, before simulating).
+        ramp_in: Seconds over which every reference is ramped in (raised cosine; 0: none).
+        rls_columns: Identified theta columns: a name of ``RLS_COLUMN_SETS`` ("sensitive":
+            k1xx, k2xx, R; "all": the five of Eq. 14) or a list of names; it must
+            include the stiffness of every objective test mass.
+        y_axes: Non-sensitive axes and spacecraft acceleration, a name of
+            :data:`tmopt.physics.scenario.Y_AXES`
+            ("drag_free": Table 1; "round1": the first round's f_B and slow y PID).
+        jacobian: Plant-Jacobian sign of the FRBF-PID's learning law ("plus" | "online").
         chunk: Designs simulated per call (bounds memory; results do not depend on it).
         name: Problem name.
     """
 
     def __init__(
         self,
+        *,
         scheme: str = "B",
         n_freq: int = 3,
         amplitude_bounds: Sequence[float] = (1e-6, 2e-4),
@@ -97,6 +115,11 @@ class StiffnessProblem(ExpensiveProblem):
         alpha2: float = 0.1,
         stiffness_1: Sequence[float] = (1e-7, 1e-7),
         stiffness_2: Sequence[float] = (1e-7, 1e-7),
+        constraints: str = "realised",
+        ramp_in: float = SimulationConfig.ramp_in,
+        rls_columns: str | Sequence[str] = "sensitive",
+        y_axes: str = "drag_free",
+        jacobian: str = "plus",
         chunk: int = 100,
         name: str = "stiffness",
     ) -> None:
@@ -111,12 +134,26 @@ class StiffnessProblem(ExpensiveProblem):
         self.noise_seed, self.chunk = int(noise_seed), int(chunk)
         self.epsilon = _positive(name, "epsilon", epsilon)
         self.m_weights = tuple(float(w) for w in m_weights)
-        self.config = config_at_rate(  # the one sample-rate rule (noise ASDs, PID gains)
-            sample_rate, duration=duration, controller=controller, f_max=f_max,
-            alpha1=alpha1, gap=gap, alpha2=alpha2, record="estimates",
-            stiffness_1=tuple(float(v) for v in stiffness_1),
-            stiffness_2=tuple(float(v) for v in stiffness_2))
+        if constraints not in CONSTRAINT_MODES:
+            raise ValueError(f"problem {name}: constraints must be one of {CONSTRAINT_MODES}, "
+                             f"got {constraints!r}")
+        self.constraint_mode = constraints
+        columns = rls_columns if isinstance(rls_columns, str) else tuple(rls_columns)
+        try:  # the scenario's one route: sample-rate rule, named y axes, physics options
+            self.config = config_at_rate(
+                sample_rate, y_axes=y_axes, duration=duration, controller=controller,
+                f_max=f_max, alpha1=alpha1, gap=gap, alpha2=alpha2, record="estimates",
+                stiffness_1=tuple(float(v) for v in stiffness_1),
+                stiffness_2=tuple(float(v) for v in stiffness_2), ramp_in=float(ramp_in),
+                rls_columns=columns, control=ControllerSettings(jacobian=jacobian))
+        except ValueError as exc:
+            raise ValueError(f"problem {name}: {exc}") from None
+        self.y_axes = y_axes
         self.decision_tms, self.objective_tms = SCHEMES[scheme]
+        for tm in self.objective_tms:
+            if f"k{tm}xx" not in self.config.rls_columns:
+                raise ValueError(f"problem {name}: rls_columns must include k{tm}xx (an "
+                                 f"objective of scheme {scheme}); got {rls_columns!r}")
         lo, hi = self._bounds(name, amplitude_bounds, period_bounds, phase_bounds)
         groups, cnames = self._constraint_layout()
         onames = [f"{q}_TM{tm}" for tm in self.objective_tms
@@ -191,12 +228,29 @@ class StiffnessProblem(ExpensiveProblem):
             obj = phys_obj.evaluate(result, idx=tm - 1, eps=self.epsilon, weights=self.m_weights)
             cols += [obj["convergence_time"], obj["convergence_accuracy"]]
         reason = [r if d else "" for r, d in zip(result.reason, result.diverged)]
-        return np.stack(cols, axis=1), self.constraints(X), reason
+        if self.constraint_mode == "realised":
+            g = self._normalised(phys_obj.eq20_realised(result))
+        else:
+            g = self.reference_constraints(X)
+        return np.stack(cols, axis=1), g, reason
 
     def constraints(self, X: np.ndarray) -> np.ndarray:
-        """Eq. 20 per decision test mass, normalised: ``value / limit - 1`` (<= 0 feasible)."""
+        """The problem's Eq. 20 values of designs ``X`` (n, n_constr), ``<= 0`` feasible:
+        on the simulated run (``constraints="realised"``, simulates) or the reference."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        if self.constraint_mode == "reference":
+            return self.reference_constraints(X)
+        return np.vstack([self._normalised(phys_obj.eq20_realised(self.simulate_designs(
+            X[i:i + self.chunk]))) for i in range(0, len(X), self.chunk)])
+
+    def reference_constraints(self, X: np.ndarray) -> np.ndarray:
+        """Eq. 20 on the references (no simulation), normalised like :meth:`constraints`."""
         ref1, ref2 = self.references(X)
-        raw = phys_obj.eq20_constraints(ref1, ref2, self.config)  # (n, 4): TM1 g1 g2, TM2 g1 g2
+        return self._normalised(phys_obj.eq20_constraints(ref1, ref2, self.config))
+
+    def _normalised(self, raw: np.ndarray) -> np.ndarray:
+        """(n, 4) [g1 TM1, g2 TM1, g1 TM2, g2 TM2] -> ``value / limit - 1`` of the
+        decision test masses."""
         cfg = self.config
         limits = np.array([cfg.alpha1 * cfg.f_max, cfg.alpha2 * cfg.gap] * 2)
         norm = raw / limits  # = value/limit - 1
@@ -208,6 +262,10 @@ class StiffnessProblem(ExpensiveProblem):
         """Table 3 numbers of one design: times, accuracies, M at several thresholds."""
         result = self.simulate_designs(np.atleast_2d(x))
         report = {"diverged": bool(result.diverged[0]), "reason": result.reason[0] or None}
+        for tm in (1, 2):
+            report[f"max_abs_x_TM{tm}"] = float(result.max_abs_position[0, tm - 1])
+            report[f"max_abs_force_TM{tm}"] = float(result.max_abs_command[0, tm - 1])
+            report[f"max_tracking_error_TM{tm}"] = float(result.max_tracking_error[0, tm - 1])
         w1, w2 = self.m_weights
         for tm in self.objective_tms:
             idx = tm - 1

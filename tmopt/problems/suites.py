@@ -107,7 +107,7 @@ class PymooBenchmark(ExpensiveProblem):
         front_points: Number of points sampled for the Pareto front (>= 10).
     """
 
-    def __init__(self, name: str, n_var: int | None = None, n_obj: int | None = None,
+    def __init__(self, name: str, *, n_var: int | None = None, n_obj: int | None = None,
                  difficulty: int | list[float] | None = None,
                  constraint_groups: str | None = None, front_points: int = 2000) -> None:
         key = str(name).lower()

@@ -4,7 +4,7 @@ Expensive optimisation compares algorithms at equal numbers of real evaluations,
 sweep's final tables compare each run at its own end. Here every run's archive (complete
 or not: an unfinished run counts up to where it got) is cut after its first ``k`` real
 evaluations, in the order they were made, and the run's final choice is taken on that
-prefix (:func:`tmopt.outputs.final_choice`: the feasible non-dominated set, the best
+prefix (:func:`tmopt.run.outputs.final_choice`: the feasible non-dominated set, the best
 compromise of Eq. 21, else the least violating design). Per ``k``:
 
 - stiffness problem: whether that design is feasible, its convergence time (Eq. 18),
@@ -12,7 +12,7 @@ compromise of Eq. 21, else the least violating design). Per ``k``:
   the optimiser saw; the final tables re-simulate the chosen design with the same noise
   seed, which gives the same values at the optimisation threshold);
 - benchmark suites: whether a feasible design exists, IGD, IGD+ and HV of the feasible
-  front (:func:`tmopt.outputs.indicator_values`).
+  front (:func:`tmopt.run.outputs.indicator_values`).
 
 Runs that have not reached ``k`` are counted as such (``runs`` = reached / all), never
 extrapolated. The table tests each setting against the reference algorithm at the same
@@ -27,11 +27,11 @@ from collections.abc import Sequence
 
 from omegaconf import OmegaConf
 
-from tmopt.archive import ArchiveData, read_archive
-from tmopt.build import build_problem
+from tmopt.evaluation.archive import ArchiveData, read_archive
 from tmopt.metrics.identification import metric_m
-from tmopt.outputs import final_choice, indicator_values, reference_front
 from tmopt.reporting.runs import COMPLETE, INCOMPLETE, RunRecord
+from tmopt.run.build import build_problem
+from tmopt.run.outputs import final_choice, indicator_values, reference_front
 
 log = logging.getLogger(__name__)
 

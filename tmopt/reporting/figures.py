@@ -170,7 +170,7 @@ def _fig10_plot(d: dict, truth: float, path: Path, title: str) -> None:
 
 def _fig10_csv(d: dict, path: Path) -> None:
     """The time series at 1 Hz (every 10th sample at 10 Hz), enough to redraw the figure."""
-    from tmopt.archive import atomic_write_text
+    from tmopt.files import atomic_write_text
 
     step = max(1, int(round(1.0 / max(np.diff(d["time"][:2]).item(), 1e-9))))
     cols = {"time_s": d["time"], "ref_x1_m": d["ref_x1"], "x1_m": d["x1_true"],

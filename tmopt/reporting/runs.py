@@ -204,7 +204,7 @@ def _yaml(path: Path, resolve: bool = True):
 def _archive_rows(path: Path) -> int | None:
     if not path.is_file():
         return None
-    from tmopt.archive import ArchiveError, read_archive
+    from tmopt.evaluation.archive import ArchiveError, read_archive
 
     try:
         return len(read_archive(path))

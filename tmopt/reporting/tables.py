@@ -15,7 +15,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from tmopt.archive import atomic_write_text
+from tmopt.files import atomic_write_text
 from tmopt.reporting.paper import PAPER_TABLE3, TABLE3_COLUMNS, display_name
 from tmopt.reporting.runs import COMPLETE, RunRecord
 from tmopt.reporting.stats import fmt_mean_std, fmt_number, fmt_p, mark, mean_std, rank_sum

@@ -122,7 +122,7 @@ class GPSurrogate(Surrogate):
 
     name = "gp"
 
-    def __init__(self, kernel: str = "rbf", noise_floor: float = 1e-6, warm_start: bool = True,
+    def __init__(self, *, kernel: str = "rbf", noise_floor: float = 1e-6, warm_start: bool = True,
                  max_iter: int = 200, refit_every: int = 1, max_attempts: int = 2,
                  fit_mode: str = "per_output",
                  rbf_fallback: bool = True, seed: int = 0, num_threads: int = 1) -> None:

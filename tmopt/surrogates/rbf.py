@@ -86,7 +86,7 @@ class RBFSurrogate(Surrogate):
 
     name = "rbf"
 
-    def __init__(self, kernel: str = "cubic", centres: str = "all", n_centres: int = 0,
+    def __init__(self, *, kernel: str = "cubic", centres: str = "all", n_centres: int = 0,
                  width_factors: Sequence[float] = (0.5, 1.0, 2.0, 4.0, 8.0),
                  ridge: float = 1e-8, seed: int = 0, num_threads: int = 1) -> None:
         if kernel not in KERNELS:

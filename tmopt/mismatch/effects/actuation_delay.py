@@ -38,7 +38,7 @@ class ActuationDelay(Effect):
                    "change over tau")  # fmt: skip
     needs = ("a higher excitation frequency (a delay's residual grows like w^3, in "
              "quadrature with the motion) or broadband force content")  # fmt: skip
-    calibration = Calibration("x1", {}, 5.3e-06, 5.0, 5.1e-05, 47.9, "eq")
+    calibration = Calibration("x1", {}, 3.1e-05, 4.8, 0.00033, 50.9, "eq")
 
     def inject(self, inj: Injection, b: Builder) -> dict[str, Any]:
         ch, _ = self.check(inj, b.duration)

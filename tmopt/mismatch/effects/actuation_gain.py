@@ -36,7 +36,7 @@ class ActuationGain(Effect):
                    "commanded force: a gain error of the electrode drive")  # fmt: skip
     needs = ("two or more excitation frequencies (a gain error grows like w^2 relative to "
              "stiffness, which is flat) or broadband force content")  # fmt: skip
-    calibration = Calibration("x1", {}, 6.8e-06, 4.9, 7.1e-05, 51.4, "eq")
+    calibration = Calibration("x1", {}, 1.4e-05, 4.9, 0.00015, 52.2, "eq")
 
     def inject(self, inj: Injection, b: Builder) -> dict[str, Any]:
         ch, _ = self.check(inj, b.duration)

@@ -40,7 +40,7 @@ class ActuationQuantisation(Effect):
     profiled = True
     Q_RANGE: ClassVar[tuple[float, float]] = (1e-14, 1e-9)
     MAX_GRID: ClassVar[int] = 1 << 20
-    calibration = Calibration("x1", {}, 2.7e-12, 5.2, 8.4e-12, 50.0, "eq")
+    calibration = Calibration("x1", {}, 2.7e-12, 5.2, 8.4e-12, 50.6, "eq")
     noise_like = True
 
     def inject(self, inj: Injection, b: Builder) -> dict[str, Any]:

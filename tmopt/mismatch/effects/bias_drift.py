@@ -34,7 +34,7 @@ class BiasDrift(Effect):
     explanation = ("the bias force on {ch} ({where}) drifts linearly during the run "
                    "(thermal gradients, charging, outgassing)")  # fmt: skip
     needs = "a longer run (the drift's signature grows with the duration squared)"
-    calibration = Calibration("x1", {}, 2.8e-16, 5.0, 2.7e-15, 48.4, "eq")
+    calibration = Calibration("x1", {}, 2.8e-16, 5.1, 2.7e-15, 49.2, "eq")
 
     def inject(self, inj: Injection, b: Builder) -> dict[str, Any]:
         ch, _ = self.check(inj, b.duration)

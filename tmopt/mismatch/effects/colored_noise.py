@@ -43,7 +43,7 @@ class ColoredNoise(Effect):
                    "red")  # fmt: skip
     needs = "nothing: a noise-model property, tested on the residual spectrum"
     profiled = True
-    calibration = Calibration("x1", {"exponent": 1.0}, 2.3e-12, 5.2, 7.1e-12, 49.4, "eq")
+    calibration = Calibration("x1", {"exponent": 1.0}, 2.3e-12, 5.3, 7.1e-12, 50.1, "eq")
     noise_like = True
 
     def inject(self, inj: Injection, b: Builder) -> dict[str, Any]:

@@ -34,7 +34,7 @@ class CubicStiffness(Effect):
     explanation = ("the force on {ch} ({where}) is not linear in the displacement: a cubic "
                    "term k3 x^3 (non-linear electrostatic/gravitational gradient)")  # fmt: skip
     needs = "a larger excitation amplitude on this axis (the term grows like A^3)"
-    calibration = Calibration("x1", {}, 4.3, 4.9, 45.0, 51.8, "eq")
+    calibration = Calibration("x1", {}, 4.3, 4.9, 45.0, 51.1, "eq")
 
     def inject(self, inj: Injection, b: Builder) -> dict[str, Any]:
         ch, _ = self.check(inj, b.duration)

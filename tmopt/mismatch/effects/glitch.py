@@ -48,7 +48,7 @@ class Glitch(Effect):
     KINDS: ClassVar[tuple[str, ...]] = ("exp", "shapelet")
     SHAPES: ClassVar[tuple[str, ...]] = ("shapelet", "exp", "one_sided", "two_sided")
     calibration = Calibration("x1", {"beta": 5.0, "shape": "shapelet"}, 1.5e-11, 5.0, 1.5e-10,
-                              50.5, "eq")  # fmt: skip
+                              50.4, "eq")  # fmt: skip
 
     def inject(self, inj: Injection, b: Builder) -> dict[str, Any]:
         ch, opt = self.check(inj, b.duration)

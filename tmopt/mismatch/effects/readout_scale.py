@@ -39,7 +39,7 @@ class ReadoutScale(Effect):
     plausible = 1e-2
     explanation = "the {kind} readout of {a} ({where}) is scaled by (1+e): a calibration error"
     needs = "motion on this axis (displacement scale: any excitation; it is invisible in Eq. 10)"
-    calibration = Calibration("x1", {"sensor": "disp"}, 3.9e-06, 5.0, 3.7e-05, 47.8, "kin_x1")
+    calibration = Calibration("x1", {"sensor": "disp"}, 1.3e-05, 4.8, 0.00014, 51.8, "kin_x1")
 
     def inject(self, inj: Injection, b: Builder) -> dict[str, Any]:
         ch, opt = self.check(inj, b.duration)

@@ -39,8 +39,8 @@ class SensingCrossTalk(Effect):
     explanation = ("the {kind} readout of {a} also sees {b}: cross-talk coefficient c "
                    "(electrode or optical misalignment, electronic pick-up)")  # fmt: skip
     needs = "motion of the source axis (cross-talk from an unexcited axis is invisible)"
-    calibration = Calibration("y1", {"source": "x1", "sensor": "disp"}, 0.0011, 4.9, 0.012,
-                              53.1, "kin_y1")  # fmt: skip
+    calibration = Calibration("y1", {"source": "x1", "sensor": "disp"}, 0.0032, 5.0, 0.034,
+                              52.8, "kin_y1")  # fmt: skip
 
     def inject(self, inj: Injection, b: Builder) -> dict[str, Any]:
         ch, opt = self.check(inj, b.duration)

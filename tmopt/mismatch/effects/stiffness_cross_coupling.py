@@ -36,7 +36,7 @@ class StiffnessCrossCoupling(Effect):
                    "other in-plane axis of the same test mass pushes along {ch}")  # fmt: skip
     needs = "motion of the coupling (source) axis: excite that axis"
     PAIRS: ClassVar[tuple[tuple[int, int], ...]] = ((0, 2), (2, 0), (1, 3), (3, 1))
-    calibration = Calibration("y1", {"source": "x1"}, 2.9e-09, 4.9, 3.1e-08, 51.8, "eq")
+    calibration = Calibration("y1", {"source": "x1"}, 2.9e-09, 4.8, 3.1e-08, 51.3, "eq")
 
     def inject(self, inj: Injection, b: Builder) -> dict[str, Any]:
         ch, opt = self.check(inj, b.duration)

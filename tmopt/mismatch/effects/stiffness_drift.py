@@ -37,7 +37,7 @@ class StiffnessDrift(Effect):
     explanation = ("the stiffness of {ch} ({where}) drifts linearly during the run "
                    "(e.g. thermal or charge changes of the electrostatic stiffness)")  # fmt: skip
     needs = "a longer run with the excitation kept on throughout"
-    calibration = Calibration("x1", {}, 7.7e-12, 4.8, 8.1e-11, 50.4, "eq")
+    calibration = Calibration("x1", {}, 8.4e-12, 5.1, 8.1e-11, 49.2, "eq")
 
     def inject(self, inj: Injection, b: Builder) -> dict[str, Any]:
         ch, _ = self.check(inj, b.duration)

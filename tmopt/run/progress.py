@@ -8,7 +8,7 @@ import sys
 import numpy as np
 from tqdm import tqdm
 
-from tmopt.archive import ArchiveData
+from tmopt.evaluation.archive import ArchiveData
 
 log = logging.getLogger("tmopt.progress")
 

@@ -4,7 +4,7 @@ Real runs (real stiffness simulations and MW1) with tiny budgets: the Table 3 co
 (algorithms x seeds) through Hydra's basic launcher and the scheme x k command through
 the joblib launcher preset, a run made to fail (a corrupt archive where the run will
 write) and one left incomplete (its metrics.json removed, which is what a run killed
-before its end leaves on disk; tests/test_robustness.py kills runs for real). The same
+before its end leaves on disk; tests/run/test_robustness.py kills runs for real). The same
 Table 3 command is then re-run through joblib: finished runs are skipped and the
 incomplete one resumes, so run folders do not depend on the launcher.
 """
@@ -20,11 +20,11 @@ from pathlib import Path
 
 import pytest
 
-from tmopt.cli import available, preflight
-from tmopt.collect import collect
+from tmopt.reporting.collect import collect
 from tmopt.reporting.runs import discover_runs
+from tmopt.run.cli import available, preflight
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 TINY = ["experiment=quick", "budget=40", "algorithm.pop_size=20", "progress=false",
         "plots=false"]
 TABLE3 = ["algorithm=nsga2,nsga3", "problem=stiffness,mw1", "seed=0,1"]
@@ -64,8 +64,8 @@ def test_quick_preset_admits_the_whole_scheme_by_k_sweep_with_its_default_algori
 def test_paper_preset_gives_the_mgsaea_family_697_real_evaluations_at_18_variables():
     from hydra import compose
 
-    from tmopt.build import build
-    from tmopt.cli import _hydra_context
+    from tmopt.run.build import build
+    from tmopt.run.cli import _hydra_context
 
     with _hydra_context():
         for algorithm in ("mgsaea", "mgsaea_ipc", "mgsaea_star"):
@@ -130,11 +130,16 @@ def test_both_sweeps_through_basic_and_joblib_then_collect_lists_failed_and_inco
     assert (early[("nsga3", "20")]["n_runs"], early[("nsga3", "20")]["n_complete"]) == (
         "2", "1")
 
-    # the same command through the other launcher (one worker: only resume/skip is checked)
-    _sweep(TABLE3, sweep, "local_parallel", "hydra.launcher.n_jobs=1")
-    assert "resuming from 40" in (unfinished / "tmopt.log").read_text()
+    # the same command through the other launcher (one worker: only resume/skip is checked);
+    # the finished runs are not even launched (tmopt/run/sweep_resume.py), the failed one is,
+    # to say again why it fails
     done = sweep / _folder("algorithm=nsga3", "problem=stiffness", "seed=0")
-    assert "already complete" in (done / "tmopt.log").read_text()
+    done_log = (done / "tmopt.log").read_text()
+    out = _sweep(TABLE3, sweep, "local_parallel", "hydra.launcher.n_jobs=1")
+    assert ("tmopt sweep: 8 runs: 6 skipped (complete), 1 resumed (40 archived evaluations), "
+            "1 blocked (launched to report why), 0 started; launching 2") in out
+    assert "resuming from 40" in (unfinished / "tmopt.log").read_text()
+    assert (done / "tmopt.log").read_text() == done_log
 
 
 @pytest.mark.slow
@@ -149,3 +154,7 @@ def test_submitit_local_launcher_writes_the_same_run_folders(tmp_path):
     assert (sweep / ".submitit").is_dir()  # submitit's own logs, which collect skips
     assert {r.name for r in discover_runs(sweep)} == {
         _folder("algorithm=nsga2", "seed=0"), _folder("algorithm=nsga2", "seed=1")}
+    again = _sweep(["algorithm=nsga2", "seed=0,1"], sweep, "submitit_local",
+                   "hydra.launcher.timeout_min=10")
+    assert ("tmopt sweep: 2 runs: 2 skipped (complete), 0 resumed (0 archived evaluations), "
+            "0 started; launching 0") in again

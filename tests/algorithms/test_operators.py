@@ -5,18 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tmopt.algorithms.selection import (
-    cdp_sort,
-    change_rate,
-    choose_granularity,
-    dominance_matrix,
-    environmental_selection,
-    spea2_fitness,
-    total_violation,
-    tournament,
-    truncation,
-    unique_rows,
-)
+from tmopt.algorithms.operators.constraints import cdp_sort, choose_granularity, dominance_matrix
+from tmopt.algorithms.operators.stage import change_rate
+from tmopt.algorithms.operators.survival import environmental_selection, spea2_fitness, truncation
+from tmopt.algorithms.operators.variation import tournament, unique_rows
+from tmopt.metrics.indicators import constraint_violation
 from tmopt.metrics.selection import best_compromise
 
 # Four points: 0 and 1 non-dominated, 2 dominated by both, 3 dominated by all.
@@ -154,9 +147,9 @@ def test_tournament_returns_the_better_of_each_random_pair():
     assert np.array_equal(won, cand.min(axis=1))
 
 
-def test_total_violation_and_unique_rows():
-    assert total_violation(np.array([[0.5, -1.0], [-2.0, -1.0]])).tolist() == [0.5, 0.0]
-    assert total_violation(np.zeros((2, 0))).tolist() == [0.0, 0.0]
+def test_constraint_violation_and_unique_rows():
+    assert constraint_violation(np.array([[0.5, -1.0], [-2.0, -1.0]])).tolist() == [0.5, 0.0]
+    assert constraint_violation(np.zeros((2, 0))).tolist() == [0.0, 0.0]
     assert unique_rows(np.array([[2.0], [1.0], [2.0], [0.0]])).tolist() == [0, 1, 3]
 
 
@@ -170,18 +163,20 @@ def test_bad_input_is_named():
 
 
 def test_ga_offspring_two_children_per_pair_within_bounds_and_reproducible():
-    from tmopt.algorithms.selection import ga_offspring
+    from tmopt.algorithms.operators.variation import ga_offspring
 
     rng = np.random.default_rng(0)
     X = rng.random((10, 6))
     xl, xu = np.zeros(6), np.ones(6)
     mates = np.array([[0, 1], [2, 3], [4, 5]])
-    a = ga_offspring(X, mates, xl, xu, np.random.default_rng(1))
-    b = ga_offspring(X, mates, xl, xu, np.random.default_rng(1))
+    a = ga_offspring(X, mates, xl, xu, np.random.default_rng(1), crossover_eta=20.0,
+                     mutation_eta=20.0)
+    b = ga_offspring(X, mates, xl, xu, np.random.default_rng(1), crossover_eta=20.0,
+                     mutation_eta=20.0)
     assert a.shape == (6, 6) and np.array_equal(a, b)
     assert np.all((a >= xl) & (a <= xu))
     # identical parents are not crossed (SBX) and mutation changes ~1/n_var of the variables
     same = ga_offspring(np.tile(X[:1], (2, 1)), np.array([[0, 1]] * 200), xl, xu,
-                        np.random.default_rng(2))
+                        np.random.default_rng(2), crossover_eta=20.0, mutation_eta=20.0)
     changed = np.mean(same != X[0])
     assert 0.05 < changed < 0.35

@@ -3,8 +3,8 @@
 The runner is the only place that evaluates a problem for real. It writes into the run
 folder as it goes (``archive.h5`` after every batch) and, at the end, the final
 non-dominated set, the chosen solution (paper Eq. 21), ``metrics.json`` and plots (see
-:mod:`tmopt.outputs`). Running the same command again in the same folder resumes an
-interrupted run by replay (:mod:`tmopt.problems.evaluator`) and skips a finished one;
+:mod:`tmopt.run.outputs`). Running the same command again in the same folder resumes an
+interrupted run by replay (:mod:`tmopt.evaluation.evaluator`) and skips a finished one;
 an algorithm that checkpoints its costly state (``algorithm_state.pt``) resumes from it.
 """
 
@@ -16,10 +16,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from tmopt.algorithms.base import CHECKPOINT_FILE, Algorithm
-from tmopt.archive import ArchiveData, ArchiveError, EvaluationArchive, read_archive
+from tmopt.evaluation.archive import ArchiveData, ArchiveError, EvaluationArchive, read_archive
+from tmopt.evaluation.evaluator import Evaluator
 from tmopt.problems.base import ExpensiveProblem
-from tmopt.problems.evaluator import Evaluator
-from tmopt.progress import ProgressReporter
+from tmopt.run.progress import ProgressReporter
 
 log = logging.getLogger(__name__)
 
@@ -66,7 +66,7 @@ def run_optimisation(
             into ``metrics.json`` (e.g. simulator-specific numbers).
         eval_time_limit: Seconds allowed per design evaluation (None: no limit).
     """
-    from tmopt.outputs import finished_metrics, write_outputs
+    from tmopt.run.outputs import finished_metrics, write_outputs
 
     outdir = _prepare_outdir(outdir)
     if outdir is not None:

@@ -5,9 +5,9 @@ import logging
 import numpy as np
 import pytest
 
-from tmopt.archive import ArchiveError, EvaluationArchive, read_archive
+from tmopt.evaluation.archive import ArchiveError, EvaluationArchive, read_archive
+from tmopt.evaluation.evaluator import FAILED_CONSTRAINT_VIOLATION, BudgetExhausted, Evaluator
 from tmopt.problems.base import ExpensiveProblem
-from tmopt.problems.evaluator import FAILED_CONSTRAINT_VIOLATION, BudgetExhausted, Evaluator
 
 
 class Toy(ExpensiveProblem):

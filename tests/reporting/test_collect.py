@@ -1,8 +1,8 @@
-"""tmopt.collect on hand-made run folders: statuses, settings, statistics, tables.
+"""tmopt.reporting.collect on hand-made run folders: statuses, settings, statistics, tables.
 
 The folders below hold only the files collect reads (metrics.json, failure.json,
 config.yaml, .hydra/overrides.yaml + hydra.yaml), with numbers chosen so every expected
-value can be worked out by hand. Real sweeps through the CLI are in tests/test_sweeps.py.
+value can be worked out by hand. Real sweeps through the CLI are in tests/run/test_sweeps.py.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from tmopt.collect import collect, main
+from tmopt.reporting.collect import collect, main
 from tmopt.reporting.runs import deduplicate, discover_runs, setting_keys
 from tmopt.reporting.stats import fmt_mean_std, mark, mean_std, rank_sum
 from tmopt.reporting.tables import STIFFNESS_METRICS, summarise

@@ -4,14 +4,14 @@ import h5py
 import numpy as np
 import pytest
 
-import tmopt.archive as archive_mod
-from tmopt.archive import (
+import tmopt.files as files_mod
+from tmopt.evaluation.archive import (
     ArchiveData,
     ArchiveError,
     EvaluationArchive,
-    atomic_write_text,
     read_archive,
 )
+from tmopt.files import atomic_write_text
 
 
 def _rows(n: int, start: float = 0.0, failed_at: int | None = None) -> ArchiveData:
@@ -79,7 +79,7 @@ def test_kill_before_rename_leaves_previous_archive(tmp_path, monkeypatch):
     def no_rename(src, dst):
         raise SystemExit("killed before the rename")
 
-    monkeypatch.setattr(archive_mod.os, "replace", no_rename)
+    monkeypatch.setattr(files_mod.os, "replace", no_rename)
     with pytest.raises(SystemExit):
         arch.append(_rows(2, 3.0))
     monkeypatch.undo()
@@ -132,7 +132,7 @@ def test_missing_dataset_and_unequal_lengths_are_refused(tmp_path):
 def test_atomic_write_text_failure_keeps_old_content(tmp_path, monkeypatch):
     path = tmp_path / "metrics.json"
     atomic_write_text(path, "old")
-    monkeypatch.setattr(archive_mod.os, "replace", lambda *a: (_ for _ in ()).throw(OSError()))
+    monkeypatch.setattr(files_mod.os, "replace", lambda *a: (_ for _ in ()).throw(OSError()))
     with pytest.raises(OSError):
         atomic_write_text(path, "new")
     monkeypatch.undo()

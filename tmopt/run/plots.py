@@ -10,7 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from tmopt.archive import ArchiveData  # noqa: E402
+from tmopt.evaluation.archive import ArchiveData  # noqa: E402
 
 
 def _feasible(data: ArchiveData) -> np.ndarray:

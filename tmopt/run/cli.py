@@ -23,19 +23,21 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
-from tmopt.archive import ArchiveError, atomic_write_text
-from tmopt.build import build
-from tmopt.config import GROUPS, ConfigError, config_hash, register_configs
+from tmopt.evaluation.archive import ArchiveError
+from tmopt.files import atomic_write_text
+from tmopt.run.build import build
+from tmopt.run.config import GROUPS, ConfigError, config_hash, register_configs
+from tmopt.run.run_lock import RunFolderBusy, hold_run_lock
 
 log = logging.getLogger("tmopt")
 
-CONF_DIR = Path(__file__).resolve().parent.parent / "conf"
+CONF_DIR = Path(__file__).resolve().parents[2] / "conf"
 #: Flags after which Hydra prints information instead of running: no pre-flight needed.
 INFO_FLAGS = {"--help", "-h", "--hydra-help", "--info", "-i", "--cfg", "-c",
               "--shell-completion", "-sc", "--version", "--resolve", "-p", "--package"}
 MULTIRUN_FLAGS = {"-m", "--multirun"}
 
-register_configs()
+register_configs(CONF_DIR)
 
 
 # ---- pre-flight -------------------------------------------------------------------------
@@ -69,6 +71,14 @@ def preflight(args: list[str]) -> int:
 
 def _as_override(ov, value: str) -> str:
     return f"{ov.get_key_element()}={value}"  # the key element keeps its +/++/~ prefix
+
+
+def option_config(group: str, option: str) -> DictConfig:
+    """The node of ``conf/<group>/<option>.yaml`` as Hydra composes it (constructor
+    defaults, then the file), e.g. to build one algorithm outside a run."""
+    with _hydra_context():
+        cfg = compose(config_name="config", overrides=[f"{group}={option}"])
+    return cfg[group]
 
 
 def _check_group_values(key: str, vals: list[str]) -> None:
@@ -150,13 +160,19 @@ def run_from_config(cfg: DictConfig) -> dict | None:
     try:
         problem, algorithm = build(cfg, choices)
         atomic_write_text(outdir / "config.yaml", OmegaConf.to_yaml(cfg, resolve=True))
-        from tmopt.runner import run_optimisation
+        from tmopt.run.runner import run_optimisation
 
-        result = run_optimisation(
-            problem, algorithm, budget=cfg.budget, seed=cfg.seed, outdir=outdir,
-            config_hash=config_hash(cfg), resume=cfg.resume, progress=cfg.progress,
-            plots=cfg.plots, extra_metrics=getattr(problem, "extra_metrics", None),
-            eval_time_limit=cfg.eval_time_limit)
+        with hold_run_lock(outdir):  # one process per run folder (tmopt/run/run_lock.py)
+            result = run_optimisation(
+                problem, algorithm, budget=cfg.budget, seed=cfg.seed, outdir=outdir,
+                config_hash=config_hash(cfg), resume=cfg.resume, progress=cfg.progress,
+                plots=cfg.plots, extra_metrics=getattr(problem, "extra_metrics", None),
+                eval_time_limit=cfg.eval_time_limit)
+    except RunFolderBusy as exc:  # not a failure of this run: leave its folder alone
+        log.error("tmopt: not run: %s", exc)
+        if not multirun:
+            sys.exit(1)
+        return None
     except (ConfigError, ArchiveError, OSError) as exc:
         _record_failure(outdir, exc)
         log.error("tmopt: error: %s", exc)

@@ -1,10 +1,10 @@
 """Append-only store of every real evaluation, written atomically as it grows.
 
-Every batch of real evaluations is appended and the whole archive is rewritten to a
-temporary file that is then renamed over the old one (``os.replace`` is atomic on
-POSIX). A run killed at any moment therefore leaves either the previous complete
-archive or the new complete one, never a half-written file; a stale ``*.tmp`` is
-ignored. Rewriting is cheap here: even 10 000 evaluations of 30 variables are a few MB.
+Every batch of real evaluations is appended and the whole archive is rewritten
+atomically (:mod:`tmopt.files`: a temporary file renamed over the old one), so a run
+killed at any moment leaves either the previous complete archive or the new complete
+one, never a half-written file. Rewriting is cheap here: even 10 000 evaluations of 30
+variables are a few MB.
 
 The archive also carries the hash of the configuration that produced it, so a resumed
 run can refuse an archive that belongs to a different experiment.
@@ -12,13 +12,13 @@ run can refuse an archive that belongs to a different experiment.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import h5py
 import numpy as np
+
+from tmopt.files import atomic_write
 
 FORMAT = "tmopt-archive"
 FORMAT_VERSION = 1
@@ -87,32 +87,6 @@ class ArchiveData:
         )
 
 
-def atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` via a temporary file in the same folder and a rename."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        _remove_quietly(tmp)
-        raise
-
-
-def atomic_write_text(path: Path, text: str) -> None:
-    atomic_write_bytes(path, text.encode("utf-8"))
-
-
-def _remove_quietly(path: str | Path) -> None:
-    try:
-        os.remove(path)
-    except OSError:
-        pass
-
-
 class EvaluationArchive:
     """The on-disk archive of one run (``archive.h5`` in the run folder)."""
 
@@ -136,29 +110,24 @@ class EvaluationArchive:
 
 
 def write_archive(path: Path, data: ArchiveData, attrs: dict) -> None:
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
-    try:
-        with h5py.File(tmp, "w") as h5:
-            h5.attrs["format"] = FORMAT
-            h5.attrs["format_version"] = FORMAT_VERSION
-            for key, value in attrs.items():
-                h5.attrs[key] = value
-            h5.create_dataset("X", data=data.X)
-            h5.create_dataset("F", data=data.F)
-            h5.create_dataset("G", data=data.G)
-            h5.create_dataset("failed", data=data.failed)
-            h5.create_dataset("reason", data=np.array(data.reason, dtype=h5py.string_dtype()))
-            h5.create_dataset("seed", data=data.seed)
-            h5.create_dataset("wall_time", data=data.wall_time)
-            h5.create_dataset("batch", data=data.batch)
-        with open(tmp, "rb") as fh:
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        _remove_quietly(tmp)
-        raise
+    """Write ``data`` and ``attrs`` to ``path`` atomically (:func:`tmopt.files.atomic_write`)."""
+    atomic_write(path, lambda tmp: _write_h5(tmp, data, attrs))
+
+
+def _write_h5(tmp: str, data: ArchiveData, attrs: dict) -> None:
+    with h5py.File(tmp, "w") as h5:
+        h5.attrs["format"] = FORMAT
+        h5.attrs["format_version"] = FORMAT_VERSION
+        for key, value in attrs.items():
+            h5.attrs[key] = value
+        h5.create_dataset("X", data=data.X)
+        h5.create_dataset("F", data=data.F)
+        h5.create_dataset("G", data=data.G)
+        h5.create_dataset("failed", data=data.failed)
+        h5.create_dataset("reason", data=np.array(data.reason, dtype=h5py.string_dtype()))
+        h5.create_dataset("seed", data=data.seed)
+        h5.create_dataset("wall_time", data=data.wall_time)
+        h5.create_dataset("batch", data=data.batch)
 
 
 def read_archive(path: str | Path) -> ArchiveData:

@@ -17,16 +17,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import tmopt.archive
+import tmopt.files
 from tmopt.algorithms.nsga2 import NSGA2
-from tmopt.archive import ArchiveError, read_archive
-from tmopt.cli import preflight
-from tmopt.config import ConfigError
-from tmopt.problems.evaluator import Evaluator
+from tmopt.evaluation.archive import ArchiveError, read_archive
+from tmopt.evaluation.evaluator import Evaluator
 from tmopt.problems.faulty import FaultyProblem
-from tmopt.runner import run_optimisation
+from tmopt.run.cli import preflight
+from tmopt.run.config import ConfigError
+from tmopt.run.runner import run_optimisation
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 # A run slow enough to be killed mid-way: 20 designs per batch, 0.3 s per batch, with
 # designs that raise and designs that return NaN (both must survive the resume).
 SLOW_RUN = ["problem=faulty", "problem.batch_delay=0.3", "algorithm=nsga2",
@@ -135,9 +135,13 @@ def test_killed_sweep_skips_finished_runs_and_resumes_the_unfinished(tmp_path):
     archived = _kill_when(proc, run1 / "archive.h5", rows=60)
     assert (run0 / "metrics.json").exists()  # the first run had finished
     finished = (run0 / "metrics.json").read_text()
+    log0 = (run0 / "tmopt.log").read_text()
 
-    _finish(sweep)
-    assert "already complete" in (run0 / "tmopt.log").read_text()
+    out = _finish(sweep).stdout
+    # the sweep launches only the unfinished run (tmopt/run/sweep_resume.py)
+    assert (f"tmopt sweep: 2 runs: 1 skipped (complete), 1 resumed ({archived} archived "
+            "evaluations), 0 started; launching 1") in out
+    assert (run0 / "tmopt.log").read_text() == log0  # not launched at all
     assert (run0 / "metrics.json").read_text() == finished
     assert f"resuming from {archived}" in (run1 / "tmopt.log").read_text()
     assert json.loads((run1 / "metrics.json").read_text())["n_evals"] == 240
@@ -180,7 +184,7 @@ def test_disk_full_during_an_archive_write_loses_nothing_already_archived(tmp_pa
                 raise OSError(errno.ENOSPC, "No space left on device")
         return real_replace(src, dst)
 
-    monkeypatch.setattr(tmopt.archive.os, "replace", full_disk)
+    monkeypatch.setattr(tmopt.files.os, "replace", full_disk)
     run = tmp_path / "run"
     with pytest.raises(OSError) as err:
         run_optimisation(problem, NSGA2(pop_size=20), budget=120, seed=3, outdir=run,
@@ -189,7 +193,7 @@ def test_disk_full_during_an_archive_write_loses_nothing_already_archived(tmp_pa
     assert "40 evaluations archived before are intact" in str(err.value)
     assert _rows(run / "archive.h5") == 40
     assert not list(run.glob(".archive.h5.*"))  # no temporary file left behind
-    monkeypatch.setattr(tmopt.archive.os, "replace", real_replace)
+    monkeypatch.setattr(tmopt.files.os, "replace", real_replace)
     resumed = run_optimisation(problem, NSGA2(pop_size=20), budget=120, seed=3, outdir=run,
                                progress=False, plots=False)
     assert resumed.resumed_from == 40
@@ -297,8 +301,8 @@ def _small_run(algorithm: str, seed: int):
     """A few generations of ``algorithm`` on 4-variable MW1, built from its own YAML."""
     from hydra import compose
 
-    from tmopt.build import build
-    from tmopt.cli import _hydra_context
+    from tmopt.run.build import build
+    from tmopt.run.cli import _hydra_context
 
     overrides = [f"algorithm={algorithm}", "problem=mw1", "problem.n_var=4", f"seed={seed}"]
     with _hydra_context():

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import inspect
 from functools import partial
 
 from omegaconf import DictConfig, OmegaConf
 
 from tmopt.algorithms.base import Algorithm, AlgorithmConfigError
-from tmopt.config import ConfigError, check_node
 from tmopt.problems.base import ExpensiveProblem
+from tmopt.run.config import ConfigError, check_node, constructor_parameters
 
 
 def _kwargs(node: DictConfig) -> dict:
@@ -32,7 +31,8 @@ def build_problem(cfg: DictConfig, choice: str = "") -> ExpensiveProblem:
 def build_algorithm(cfg: DictConfig, choice: str = "", surrogate_choice: str = "") -> Algorithm:
     cls = check_node("algorithm", cfg.algorithm, choice)
     extra = {}
-    wants_surrogate = "surrogate" in inspect.signature(cls.__init__).parameters
+    # The one BUILT_ARGUMENTS entry: a surrogate factory from the surrogate group.
+    wants_surrogate = "surrogate" in constructor_parameters(cls)
     if wants_surrogate and "surrogate" not in cfg.algorithm:
         if cfg.get("surrogate") is None:
             raise ConfigError(f"algorithm={choice} needs a surrogate; set surrogate=<name>")

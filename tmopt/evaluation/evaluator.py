@@ -25,9 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tmopt.archive import ArchiveData, ArchiveError, EvaluationArchive
+from tmopt.evaluation.archive import ArchiveData, ArchiveError, EvaluationArchive
+from tmopt.evaluation.isolation import EvaluationTimeout, IsolatedProblem
 from tmopt.problems.base import ExpensiveProblem
-from tmopt.problems.isolation import EvaluationTimeout, IsolatedProblem
 
 log = logging.getLogger(__name__)
 
@@ -65,7 +65,7 @@ class Evaluator:
         replay: Evaluations of an interrupted run to answer from before calling the problem.
         seed: Recorded with every evaluation (problems with noise use their own seed).
         time_limit: Seconds allowed per design (None: no limit). With a limit, evaluations
-            run in a worker process (:mod:`tmopt.problems.isolation`); a design that
+            run in a worker process (:mod:`tmopt.evaluation.isolation`); a design that
             overruns it is marked failed and the run goes on.
     """
 

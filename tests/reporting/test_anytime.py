@@ -2,7 +2,7 @@
 
 Archives made by hand, with numbers chosen so every expected value can be worked out;
 the same view on real sweeps (and its agreement with the final Table 3) is in
-tests/test_sweeps.py.
+tests/run/test_sweeps.py.
 """
 
 from __future__ import annotations
@@ -12,9 +12,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from tmopt.archive import ArchiveData
-from tmopt.collect import main
+from tmopt.evaluation.archive import ArchiveData
 from tmopt.reporting.anytime import curve_counts, parse_counts, prefix_values
+from tmopt.reporting.collect import main
 
 NAMES = ["convergence_time_TM1", "convergence_accuracy_TM1"]
 STIFFNESS_LIKE = SimpleNamespace(objective_names=NAMES, m_weights=(1 / 60, 1e10))

@@ -10,10 +10,10 @@ from pathlib import Path
 
 import pytest
 
-from tmopt.cli import available, preflight
-from tmopt.config import ConfigError
+from tmopt.run.cli import available, preflight
+from tmopt.run.config import ConfigError
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def tmopt(*args: str, cwd: Path = REPO) -> subprocess.CompletedProcess:
@@ -117,7 +117,7 @@ def test_read_only_output_folder_is_refused(tmp_path):
 
 
 def test_keys_of_a_swept_group_are_forced_so_hydra_accepts_them():
-    from tmopt.cli import force_swept_group_keys
+    from tmopt.run.cli import force_swept_group_keys
 
     args = ["-m", "algorithm=mgsaea,mgsaea_ipc", "algorithm.n_init=45", "budget=60", "seed=1"]
     assert force_swept_group_keys(args) == [
@@ -128,7 +128,7 @@ def test_keys_of_a_swept_group_are_forced_so_hydra_accepts_them():
 
 
 def test_a_forced_key_is_still_refused_by_an_option_without_it():
-    from tmopt.cli import force_swept_group_keys
+    from tmopt.run.cli import force_swept_group_keys
 
     args = ["-m", "algorithm=mgsaea,nsga2", "algorithm.n_init=45", "problem=mw1"]
     with pytest.raises(ConfigError, match="algorithm=nsga2: unknown key algorithm.n_init"):
@@ -136,7 +136,7 @@ def test_a_forced_key_is_still_refused_by_an_option_without_it():
 
 
 def test_run_folders_do_not_depend_on_override_prefixes():
-    from tmopt.config import run_folder_name
+    from tmopt.run.config import run_folder_name
 
     assert run_folder_name("++algorithm.n_init=45,algorithm=mgsaea,budget=1e+5,~plots") == \
         "algorithm.n_init=45,algorithm=mgsaea,budget=1e+5,plots"

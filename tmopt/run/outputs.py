@@ -18,10 +18,11 @@ from pathlib import Path
 
 import numpy as np
 
-from tmopt.archive import ArchiveData, atomic_write_text
+from tmopt.evaluation.archive import ArchiveData
+from tmopt.files import atomic_write_text
 from tmopt.metrics import best_compromise, hypervolume, igd, igd_plus, non_dominated_feasible
 from tmopt.metrics.indicators import constraint_violation
-from tmopt.progress import best_so_far, feasible_share
+from tmopt.run.progress import best_so_far, feasible_share
 
 log = logging.getLogger(__name__)
 
@@ -138,7 +139,7 @@ def _write_files(problem, data, pareto, metrics, outdir: Path, pf, plots: bool) 
     atomic_write_text(outdir / "pareto.csv", _archive_csv(problem, data, rows=pareto))
     atomic_write_text(outdir / "best.json", json.dumps(metrics["chosen"], indent=2))
     if plots:
-        from tmopt.plots import plot_convergence, plot_pareto
+        from tmopt.run.plots import plot_convergence, plot_pareto
 
         try:
             plot_pareto(problem, data, pareto, outdir / "pareto.png", pf)

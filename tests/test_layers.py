@@ -1,0 +1,54 @@
+"""The house (docs/decisions.md, "The house"): imports point down the layers only."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+PACKAGE = Path(__file__).resolve().parents[1] / "tmopt"
+#: Bottom to top. A module may import its own package and the layers below its own.
+LAYERS = [
+    {"files"},
+    {"physics"},
+    {"surrogates", "metrics"},
+    {"problems", "mismatch"},
+    {"evaluation"},
+    {"algorithms"},
+    {"run"},
+    {"reporting"},
+    {"__main__", "collect", "simulate"},  # entry modules that keep the commands' names
+]
+LEVEL = {name: i for i, layer in enumerate(LAYERS) for name in layer}
+
+
+def _imports(path: Path) -> set[str]:
+    """Top-level tmopt packages that ``path`` imports (``tmopt.X...`` -> ``X``)."""
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        names = [node.module] if isinstance(node, ast.ImportFrom) and node.module and \
+            node.level == 0 else [a.name for a in node.names] if isinstance(node, ast.Import) \
+            else []
+        found.update(n.split(".")[1] for n in names if n.startswith("tmopt.") and "." in n)
+    return found
+
+
+def _package(path: Path) -> str:
+    first = path.relative_to(PACKAGE).parts[0]
+    return first.removesuffix(".py")
+
+
+def test_every_package_has_a_layer():
+    packages = {_package(p) for p in PACKAGE.rglob("*.py")} - {"__init__"}
+    assert packages <= set(LEVEL), f"place {sorted(packages - set(LEVEL))} in LAYERS"
+
+
+def test_imports_point_down_the_layers_only():
+    upward = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        me = _package(path)
+        if me == "__init__":
+            continue
+        for other in _imports(path) - {me}:
+            if LEVEL.get(other, len(LAYERS)) >= LEVEL[me]:
+                upward.append(f"{path.relative_to(PACKAGE.parent)} imports tmopt.{other}")
+    assert not upward, "\n".join(upward)

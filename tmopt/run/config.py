@@ -1,0 +1,289 @@
+"""Structured configuration and its validation.
+
+The run-level settings are a dataclass registered in Hydra's ConfigStore (``run_schema``),
+so Hydra type-checks them while composing. The option groups (``problem``,
+``algorithm``, ``surrogate``) are YAML files that start from a class's constructor and
+set only what differs from it: their defaults list names ``/constructor/<class path>``, a
+node that :func:`register_configs` generates from the constructor's signature (``_target_``
+and every argument at its default), so each default is written once, in the signature,
+and every argument can be overridden from the command line. :func:`check_node` checks
+every key and type of a group node against that signature before anything is built, so a
+typo or a wrong type ends with one line naming the key and what is allowed, and the
+constructor's own checks name ranges. (Decision recorded in docs/decisions.md.)
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import inspect
+import json
+import re
+import types
+import typing
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Optional
+
+from hydra.core.config_store import ConfigStore
+from hydra.utils import get_class
+from omegaconf import MISSING, DictConfig, ListConfig, OmegaConf
+
+GROUPS = ("problem", "algorithm", "surrogate", "scheme", "experiment")
+#: Keys that change how a run is shown or stored, not what it computes.
+RUN_ONLY_KEYS = ("resume", "progress", "plots", "name")
+#: The config group whose nodes are generated from constructors (``/constructor/<class>``).
+CONSTRUCTOR_GROUP = "constructor"
+#: Constructor arguments that ``build`` supplies from another group, never an option's node.
+BUILT_ARGUMENTS = ("surrogate",)
+
+
+def _objectives_fixed(node: dict) -> bool:
+    from tmopt.problems.suites import SCALABLE
+
+    return str(node.get("name", "")).lower() not in SCALABLE
+
+
+#: Arguments that earlier configurations did not name, so that, while they are at their
+#: constructor default, they stay out of config_hash: the archives of earlier runs (same
+#: numbers) still resume and finished runs are still skipped. Keyed by (config group, its
+#: ``_target_``, argument); the value, if not None, says for which nodes the rule holds.
+#: qLogNEHVI's ``max_baseline`` came after runs were made; the suite problems' files named
+#: ``n_obj`` only for the problems scalable in objectives (for the others it has one value).
+HASH_NEUTRAL_ARGUMENTS: dict[tuple[str, str, str], Callable[[dict], bool] | None] = {
+    ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "max_baseline"): None,
+    ("problem", "tmopt.problems.suites.PymooBenchmark", "difficulty"): None,
+    ("problem", "tmopt.problems.suites.PymooBenchmark", "front_points"): None,
+    ("problem", "tmopt.problems.suites.PymooBenchmark", "n_obj"): _objectives_fixed,
+}
+
+
+class ConfigError(ValueError):
+    """A configuration value is invalid; the message is one line naming it."""
+
+
+@dataclass
+class RunConfig:
+    """Run settings (top level of every configuration).
+
+    Attributes:
+        problem, algorithm, surrogate: Group nodes (see ``conf/<group>/``).
+        seed: Seeds the algorithm; same config and seed give the same numbers.
+        budget: Real (expensive) evaluations allowed.
+        resume: Resume an interrupted run found in the output folder (by replay).
+        progress: One progress line per generation.
+        plots: Write PNG plots into the run folder.
+        name: Label of the run or sweep (names the multirun folder).
+        eval_time_limit: Seconds allowed per design evaluation; a design that overruns
+            is recorded as failed and the run goes on (None: no limit).
+    """
+
+    problem: Any = MISSING
+    algorithm: Any = MISSING
+    surrogate: Any = None
+    scheme: Any = None
+    seed: int = 0
+    budget: int = 300
+    resume: bool = True
+    progress: bool = True
+    plots: bool = True
+    name: str = "default"
+    eval_time_limit: Optional[float] = None  # noqa: UP045 - OmegaConf needs Optional
+    extras: dict = field(default_factory=dict)
+
+
+def run_folder_name(override_dirname: str) -> str:
+    """``override_dirname`` without ``+``/``++``/``~`` prefixes, so a configuration's folder
+    does not depend on how its overrides were spelled (a sweep forces some with ``++``)."""
+    return re.sub(r"(^|,)[+~]+", r"\1", override_dirname)
+
+
+def register_configs(conf_dir: str | Path | None = None) -> None:
+    """Register the run schema, the folder resolver and, for every ``/constructor/<class>``
+    that an option file under ``conf_dir`` names, that class's constructor node."""
+    store = ConfigStore.instance()
+    store.store(name="run_schema", node=RunConfig)
+    if not OmegaConf.has_resolver("tmopt_folder"):
+        OmegaConf.register_new_resolver("tmopt_folder", run_folder_name)
+    for target in constructor_targets(conf_dir) if conf_dir is not None else ():
+        try:
+            node = constructor_node(target)
+        except ConfigError:  # reported in one line by check_node if the option is chosen
+            node = {"_target_": target}
+        store.store(group=CONSTRUCTOR_GROUP, name=target, node=node)
+
+
+_CONSTRUCTOR_ENTRY = re.compile(rf"^/?{CONSTRUCTOR_GROUP}/(?P<target>[\w.]+)(@\w+)?$")
+
+
+def constructor_targets(conf_dir: str | Path) -> list[str]:
+    """Class paths that the option files ``conf_dir/<group>/*.yaml`` start from."""
+    targets = set()
+    for path in sorted(Path(conf_dir).glob("*/*.yaml")):
+        defaults = OmegaConf.load(path).get("defaults") or []
+        for entry in defaults:
+            found = _CONSTRUCTOR_ENTRY.match(entry) if isinstance(entry, str) else None
+            if found:
+                targets.add(found["target"])
+    return sorted(targets)
+
+
+def constructor_node(target: str) -> dict:
+    """``_target_`` and every argument of the class's constructor at its default
+    (``???`` where it has none), less :data:`BUILT_ARGUMENTS`."""
+    module, _, name = target.rpartition(".")
+    try:  # importlib, not hydra's get_class, which logs every failure at start-up
+        cls = getattr(importlib.import_module(module), name)
+    except Exception as exc:  # noqa: BLE001
+        raise ConfigError(f"{CONSTRUCTOR_GROUP}/{target}: cannot import the class ({exc})") \
+            from None
+    node: dict = {"_target_": target}
+    for arg, param in constructor_parameters(cls).items():
+        if arg not in BUILT_ARGUMENTS:
+            node[arg] = MISSING if param.default is param.empty else _plain(param.default)
+    return node
+
+
+def _plain(value):
+    """A default as OmegaConf stores it (tuples become lists)."""
+    return [_plain(v) for v in value] if isinstance(value, (tuple, list)) else value
+
+
+def constructor_parameters(cls) -> dict[str, inspect.Parameter]:
+    """Named parameters of ``cls(...)``, following ``**kwargs`` to a base class in the same
+    module.
+
+    A variant that adds arguments to a class of its own module (MGSAEA-IPC to MGSAEA)
+    takes the base's as ``**kwargs`` and passes them on, so each default is defined once;
+    its parameters are then its own ones followed by the base's. A ``**kwargs`` passed to a
+    class elsewhere stays the last entry (the class accepts any key, as before).
+    """
+    params: dict[str, inspect.Parameter] = {}
+    rest = None
+    for init in _init_chain(cls):
+        rest = None
+        for name, param in inspect.signature(init).parameters.items():
+            if name == "self" or param.kind is param.VAR_POSITIONAL:
+                continue
+            if param.kind is param.VAR_KEYWORD:
+                rest = param
+            else:
+                params.setdefault(name, param)
+    if rest is not None:
+        params.setdefault(rest.name, rest)
+    return params
+
+
+def _init_chain(cls) -> list:
+    """``cls.__init__`` and, while it takes ``**kwargs``, the ``__init__`` of the next base
+    class that defines one, if that class is in the same module."""
+    inits = [k for k in cls.__mro__ if "__init__" in vars(k)]
+    chain = [inits[0]]
+    for base in inits[1:]:
+        takes_rest = any(p.kind is p.VAR_KEYWORD for p in
+                         inspect.signature(vars(chain[-1])["__init__"]).parameters.values())
+        if not takes_rest or base.__module__ != chain[-1].__module__:
+            break
+        chain.append(base)
+    return [vars(k)["__init__"] for k in chain]
+
+
+# ---- validation of _target_ nodes ----------------------------------------------------
+def check_node(group: str, node: DictConfig | dict, choice: str = "") -> type:
+    """Check a group node's keys and value types against its class constructor.
+
+    Returns the class. Raises :class:`ConfigError` with a one-line message.
+    """
+    label = f"{group}={choice}" if choice else group
+    target = node.get("_target_") if node is not None else None
+    if not target:
+        raise ConfigError(f"{label}: the config has no _target_ naming the class to build")
+    try:
+        cls = get_class(target)
+    except Exception as exc:  # noqa: BLE001
+        raise ConfigError(f"{label}: cannot import _target_ {target!r} ({exc})") from None
+    params = constructor_parameters(cls)
+    accepts_any = any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values())
+    hints = _type_hints(cls)
+    missing = [k for k in OmegaConf.missing_keys(node)] if isinstance(node, DictConfig) else []
+    if missing:
+        raise ConfigError(f"{label}: {group}.{missing[0]} must be set (the constructor has no "
+                          "default for it)")
+    for key, value in node.items():
+        if key.startswith("_"):
+            continue
+        if key not in params:
+            if accepts_any:
+                continue
+            allowed = ", ".join(k for k, p in params.items()
+                                if p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD))
+            raise ConfigError(f"{label}: unknown key {group}.{key}; allowed keys: {allowed}")
+        expected = hints.get(key)
+        if expected is not None and not _matches(value, expected):
+            raise ConfigError(f"{label}: {group}.{key}={_show(value)} has the wrong type; "
+                              f"expected {_type_name(expected)}")
+    return cls
+
+
+def _type_hints(cls) -> dict:
+    """Type hints of the constructor arguments (see :func:`constructor_parameters`)."""
+    hints: dict = {}
+    for init in _init_chain(cls):
+        try:
+            found = typing.get_type_hints(init)
+        except Exception:  # noqa: BLE001 - unresolvable hints are simply not checked
+            found = {}
+        for name, hint in found.items():
+            hints.setdefault(name, hint)
+    return hints
+
+
+def _matches(value, expected) -> bool:
+    if expected is Any or expected is inspect.Parameter.empty:
+        return True
+    origin = typing.get_origin(expected)
+    if origin in (typing.Union, types.UnionType):
+        return any(_matches(value, arg) for arg in typing.get_args(expected))
+    if expected is type(None):
+        return value is None
+    if origin in (list, tuple, Sequence):
+        if not isinstance(value, (list, tuple, ListConfig)):
+            return False
+        args = [a for a in typing.get_args(expected) if a is not Ellipsis]
+        return not args or all(_matches(v, args[0]) for v in value)
+    if origin is dict or expected is dict:
+        return isinstance(value, (dict, DictConfig))
+    if expected is float:
+        return isinstance(value, (int, float)) and not isinstance(value, bool)
+    if expected is int:
+        return isinstance(value, int) and not isinstance(value, bool)
+    if isinstance(expected, type):
+        return isinstance(value, expected)
+    return True
+
+
+def _type_name(expected) -> str:
+    return getattr(expected, "__name__", None) or str(expected).replace("typing.", "")
+
+
+def _show(value) -> str:
+    if isinstance(value, (DictConfig, ListConfig)):
+        return json.dumps(OmegaConf.to_container(value))
+    return repr(value)
+
+
+def config_hash(cfg: DictConfig) -> str:
+    """Hash of everything that determines a run's numbers (run-only keys excluded)."""
+    data = OmegaConf.to_container(cfg, resolve=True)
+    for key in RUN_ONLY_KEYS:
+        data.pop(key, None)
+    data.pop("hydra", None)
+    for (group, target, key), applies in HASH_NEUTRAL_ARGUMENTS.items():
+        node = data.get(group)
+        if isinstance(node, dict) and node.get("_target_") == target and key in node \
+                and (applies is None or applies(node)) \
+                and node[key] == _plain(constructor_parameters(get_class(target))[key].default):
+            node.pop(key)
+    blob = json.dumps(data, sort_keys=True, default=str).encode()
+    return hashlib.sha256(blob).hexdigest()[:16]
