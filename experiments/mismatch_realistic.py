@@ -271,9 +271,12 @@ def main_realistic(args) -> int:
     for c in todo:
         c["keep"] = str(out / "realistic_reports")
     rows = []
-    with mp.get_context("spawn").Pool(args.jobs) as pool:
-        for i, row in enumerate(pool.imap(run_case, todo), start=1):
+    stream = open(out / "realistic_rows.jsonl", "w")  # every row as it comes (nothing lost)
+    with stream, mp.get_context("spawn").Pool(args.jobs) as pool:
+        for i, row in enumerate(pool.imap_unordered(run_case, todo), start=1):
             rows.append(row)
+            stream.write(json.dumps(row, default=float) + "\n")
+            stream.flush()
             what = row.get("found") or ("unexplained " + row.get("unexplained_channels", "")
                                         if row.get("unexplained") else "-")  # fmt: skip
             if "error" in row or "traceback" in row:

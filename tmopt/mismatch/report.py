@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -49,15 +50,32 @@ def _effect_entry(dg: Diagnosis, ev, alts) -> dict:
     }
 
 
-def _rivals(ev, alts, dg: Diagnosis | None = None) -> list:
-    """Near alternatives (within AMBIGUOUS_DBIC) of another name -- catalogue or unnamed --
-    and, with ``dg``, any unnamed feature selected on the same channel: that channel holds
-    structure the named effect does not explain (a linear drift beside a curvature, a
-    stiffness drift beside a stiffness step), so the name is not a confident one."""
-    out = [a for a in alts if a.candidate.effect != ev.candidate.effect]
-    if dg is not None:
-        out += [f for f, _ in dg.features if f.candidate.channel == ev.candidate.channel
-                and f not in out]  # fmt: skip
+def _axes(channel: str) -> set[str]:
+    """The axes a channel label names ("x1", "y1<-x1", "acc:x1<-x2", "x1 readout")."""
+    return set(re.findall(r"[xy][12]", channel))
+
+
+def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
+    """Why a selected effect's name is not a confident one (empty: it is):
+
+    * near alternatives (within AMBIGUOUS_DBIC) of another name, catalogue or unnamed;
+    * with ``dg``: an unnamed feature selected on the same channel (a linear drift beside
+      a curvature, a stiffness drift beside a stiffness step);
+    * with ``dg``: excess the final model still leaves located on one of the effect's
+      axes (:attr:`Diagnosis.locations_after`) -- the best catalogue effect left
+      significant structure there, so it is at most part of the story (issue 26: a
+      confident wrong name is the worst outcome)."""
+    out = [{"name": a.candidate.effect, "channel": a.candidate.channel, "delta_bic": a.dbic}
+           for a in alts if a.candidate.effect != ev.candidate.effect]  # fmt: skip
+    if dg is None:
+        return out
+    out += [{"name": f.candidate.effect, "channel": f.candidate.channel, "delta_bic": f.dbic}
+            for f, _ in dg.features if f.candidate.channel == ev.candidate.channel]  # fmt: skip
+    mine = _axes(ev.candidate.channel)
+    left = [c for c in dg.locations_after.channels if _axes(c) & mine]
+    if left:
+        out.append({"name": "unexplained structure left", "channel": ", ".join(left),
+                    "delta_bic": None})  # fmt: skip
     return out
 
 
@@ -84,7 +102,7 @@ def _not_identifiable(dg: Diagnosis) -> list[dict]:
             out.append({
                 "name": ev.candidate.effect, "channel": ev.candidate.channel,
                 "reason": "ambiguous",
-                "aliased_with": [a.candidate.key for a in others],
+                "aliased_with": [f"{a['name']}[{a['channel']}]" for a in others],
                 "needs": _NEEDS[ev.candidate.effect],
             })  # fmt: skip
     return out
@@ -195,9 +213,7 @@ def build_report(dg: Diagnosis) -> dict:
         "locations_unexplained": dg.locations_after.as_dict(),
         "effects": [_effect_entry(dg, ev, alts) for ev, alts in dg.effects
                     if not _rivals(ev, alts, dg)],
-        "ambiguous": [{**_effect_entry(dg, ev, alts),
-                       "rivals": [{"name": a.candidate.effect, "channel": a.candidate.channel,
-                                   "delta_bic": a.dbic} for a in _rivals(ev, alts, dg)]}
+        "ambiguous": [{**_effect_entry(dg, ev, alts), "rivals": _rivals(ev, alts, dg)}
                       for ev, alts in dg.effects if _rivals(ev, alts, dg)],
         "features": [_feature_entry(dg, ev) for ev, _ in dg.features],
         "not_identifiable": _not_identifiable(dg),
