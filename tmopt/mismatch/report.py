@@ -62,7 +62,9 @@ def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
     * with ``dg``: an unnamed feature selected on the same channel (a linear drift beside
       a curvature, a stiffness drift beside a stiffness step);
     * with ``dg``: excess the final model still leaves located on one of the effect's
-      axes (:attr:`Diagnosis.locations_after`) -- the best catalogue effect left
+      axes in the effect's own residual group (equation residual for forces, the readout
+      residual for kinematic effects; :attr:`Diagnosis.locations_after`) -- the best
+      catalogue effect left
       significant structure there, so it is at most part of the story (issue 26: a
       confident wrong name is the worst outcome)."""
     out = [{"name": a.candidate.effect, "channel": a.candidate.channel, "delta_bic": a.dbic}
@@ -72,7 +74,9 @@ def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
     out += [{"name": f.candidate.effect, "channel": f.candidate.channel, "delta_bic": f.dbic}
             for f, _ in dg.features if f.candidate.channel == ev.candidate.channel]  # fmt: skip
     mine = _axes(ev.candidate.channel)
-    left = [c for c in dg.locations_after.channels if _axes(c) & mine]
+    kin = ev.candidate.group == "kinematic"  # its structure is in the readout residual
+    left = [c for c in dg.locations_after.channels
+            if _axes(c) & mine and c.endswith(" readout") == kin]  # fmt: skip
     if left:
         out.append({"name": "unexplained structure left", "channel": ", ".join(left),
                     "delta_bic": None})  # fmt: skip
