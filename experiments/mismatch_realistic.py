@@ -269,12 +269,20 @@ def main_realistic(args) -> int:
     (out / "realistic_reports").mkdir(parents=True, exist_ok=True)
     backends = ("kernel", "foreign") if args.backend == "both" else (args.backend,)
     todo = [c for b in backends for c in cases(b, args.seed_base, args.quick)]
+    # a fixed shuffle: a run stopped early has scored every category and both simulators
+    todo = [todo[i] for i in np.random.default_rng(0).permutation(len(todo))]
     for c in todo:
         c["keep"] = str(out / "realistic_reports")
     rows = []
-    stream = open(out / "realistic_rows.jsonl", "w")  # every row as it comes (nothing lost)
+    done_path = out / "realistic_rows.jsonl"  # every row as it comes (nothing lost)
+    if done_path.exists():  # resume: a killed run keeps what it scored
+        rows = [json.loads(line) for line in done_path.read_text().splitlines() if line]
+        done = {(r["backend"], r["seed"]) for r in rows}
+        todo = [c for c in todo if (c["backend"], c["seed"]) not in done]
+        print(f"resuming: {len(rows)} recordings already scored", flush=True)
+    stream = open(done_path, "a")
     with stream, mp.get_context("spawn").Pool(args.jobs) as pool:
-        for i, row in enumerate(pool.imap_unordered(run_case, todo), start=1):
+        for row in pool.imap_unordered(run_case, todo):
             rows.append(row)
             stream.write(json.dumps(row, default=float) + "\n")
             stream.flush()
@@ -282,7 +290,7 @@ def main_realistic(args) -> int:
                                         if row.get("unexplained") else "-")  # fmt: skip
             if "error" in row or "traceback" in row:
                 what = (row.get("error") or row["traceback"]).splitlines()[-1]
-            print(f"[{i}/{len(todo)}] {row['backend']} {row['category']} {row['truth']} "
+            print(f"[{len(rows)}] {row['backend']} {row['category']} {row['truth']} "
                   f"-> {what}", flush=True)  # fmt: skip
     keys = sorted({k for r in rows for k in r})
     with open(out / "realistic.csv", "w", newline="") as fh:
