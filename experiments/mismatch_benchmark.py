@@ -222,6 +222,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--realistic", action="store_true",
                    help="flight-like recordings from both simulators (issue 26)")
     p.add_argument("--backend", choices=("kernel", "foreign", "both"), default="both")
+    p.add_argument("--summarise", action="store_true",
+                   help="with --realistic: score the rows already in --out, simulate nothing")
     p.add_argument("--seed-base", type=int, default=40000,
                    help="first seed of the realistic set (default 40000: fresh seeds)")
     args = p.parse_args(argv)

@@ -280,8 +280,10 @@ def main_realistic(args) -> int:
         done = {(r["backend"], r["seed"]) for r in rows}
         todo = [c for c in todo if (c["backend"], c["seed"]) not in done]
         print(f"resuming: {len(rows)} recordings already scored", flush=True)
+    if getattr(args, "summarise", False):  # score what is there, run nothing
+        todo = []
     stream = open(done_path, "a")
-    with stream, mp.get_context("spawn").Pool(args.jobs) as pool:
+    with stream, mp.get_context("spawn").Pool(min(args.jobs, max(len(todo), 1))) as pool:
         for row in pool.imap_unordered(run_case, todo):
             rows.append(row)
             stream.write(json.dumps(row, default=float) + "\n")
