@@ -1,6 +1,6 @@
 """Same configurations and seeds, same archives: a refactoring changed no number.
 
-    # run the standard handful of configurations with a checkout's code (its own conf/)
+    # run the standard handful of configurations with a checkout's code (its own tmopt/conf/)
     python experiments/check_same_archives.py run CHECKOUT OUT_DIR [--only NAME ...]
     # compare two sets of run folders (or two single run folders) bit for bit
     python experiments/check_same_archives.py compare DIR_A DIR_B

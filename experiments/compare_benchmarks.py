@@ -46,7 +46,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--problems", default=",".join(PROBLEMS))
     ap.add_argument("--algorithms", default=None,
                     help="comma list (default: every algorithm of the comparison with a "
-                         "conf/algorithm file)")
+                         "tmopt/conf/algorithm file)")
     ap.add_argument("--surrogate", default="rbf", help="surrogate of the SAEAs (rbf or gp)")
     ap.add_argument("--cmoead-batch", type=int, default=100,
                     help="C-MOEA/D's batch_size at --ea-budget (1 = steady state, whose "
@@ -63,9 +63,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def algorithms(args: argparse.Namespace) -> list[str]:
     wanted = args.algorithms.split(",") if args.algorithms else \
         [*EVOLUTIONARY, *SURROGATE_ASSISTED]
-    present = [a for a in wanted if (REPO / "conf" / "algorithm" / f"{a}.yaml").exists()]
+    present = [a for a in wanted if (REPO / "tmopt" / "conf" / "algorithm" / f"{a}.yaml").exists()]
     for a in sorted(set(wanted) - set(present)):
-        print(f"note: conf/algorithm/{a}.yaml not found; {a} is left out", file=sys.stderr)
+        print(f"note: tmopt/conf/algorithm/{a}.yaml not found; {a} is left out", file=sys.stderr)
     return present
 
 

@@ -241,10 +241,14 @@ def time_limit_check(out: Path) -> bool:
 
     The run (the ``faulty`` test problem, 1 s of sleep per batch of 10: 30 s of work that
     leaves the CPU idle) gets a 1 min limit and USR2 30 s before it, so its first instance
-    is requeued after ~30 s (``max_num_timeout`` of conf/hydra/launcher/cluster.yaml);
+    is requeued after ~30 s (``max_num_timeout`` of tmopt/conf/hydra/launcher/cluster.yaml);
     SLURM holds a requeued job ~2 min before it starts again, and the next instance
     resumes from the archive. Its archive must equal that of the same run through the
     basic launcher (run meanwhile). Prints ``slurm: time_limit requeued=R ...``.
+    The check allows 20 requeues instead of the preset's 3: on a machine shared with other
+    work (load ~28 on 2 cores, measured) the 30 s of work took more than four 30 s
+    instances, and submitit then marks the job FAILED although each instance resumed
+    correctly; what is checked is requeue-and-resume, not submitit's retry cap.
     """
     cluster_dir, local_dir = out / "slurm_time_limit", out / "slurm_time_limit_local"
     for folder in (cluster_dir, local_dir):
@@ -252,7 +256,8 @@ def time_limit_check(out: Path) -> bool:
     say(f"time limit: one run of 30 s under a 1 min limit (USR2 at 30 s) into {cluster_dir}")
     cluster = tmopt([*TIME_LIMIT_RUN, "hydra/launcher=cluster", "hydra.launcher.cpus_per_task=1",
                      "hydra.launcher.mem_gb=2", "hydra.launcher.timeout_min=1",
-                     "hydra.launcher.signal_delay_s=30", f"hydra.sweep.dir={cluster_dir}"],
+                     "hydra.launcher.signal_delay_s=30", "hydra.launcher.max_num_timeout=20",
+                     f"hydra.sweep.dir={cluster_dir}"],
                     out / "slurm_time_limit.log", wait=False)
     local = tmopt([*TIME_LIMIT_RUN, f"hydra.sweep.dir={local_dir}"],
                   out / "slurm_time_limit.local.log")
@@ -266,7 +271,8 @@ def time_limit_check(out: Path) -> bool:
     states = slurm("sacct", "-D", "-X", "-n", "-P", "-o", "State", "-j", job).split()
     metrics = json.loads((run / "metrics.json").read_text()) \
         if (run / "metrics.json").exists() else {}
-    identical = same_bits(read_archive(run / "archive.h5"), read_archive(twin / "archive.h5"))
+    archives = [folder / "archive.h5" for folder in (run, twin)]
+    identical = all(a.exists() for a in archives) and same_bits(*map(read_archive, archives))
     requeued = states.count("REQUEUED")
     completed = metrics.get("status") == "complete" and states[-1:] == ["COMPLETED"]
     say(f"time limit: job {job} went {' -> '.join(states)}; the run resumed from "

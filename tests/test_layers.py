@@ -8,7 +8,7 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parents[1] / "tmopt"
 #: Bottom to top. A module may import its own package and the layers below its own.
 LAYERS = [
-    {"files"},
+    {"files", "conf"},  # conf: the Hydra configuration (package data, no code)
     {"physics"},
     {"surrogates", "metrics"},
     {"problems", "mismatch"},

@@ -163,3 +163,148 @@ def test_identification_report_gives_table3_numbers():
 def test_bad_input_names_the_parameter(kwargs, message):
     with pytest.raises(ValueError, match=message.replace("[", r"\[").replace("]", r"\]")):
         StiffnessProblem(**kwargs)
+
+
+# ---- noise modes, held-out scoring, floor (issue: noise-honest optimisation) ----------
+FIG6_2 = np.array([FIG6, [1e-4, 2 * math.pi / 200, 0.3, 2e-5, 2 * math.pi / 400, 1.0]])
+
+
+def _f(p, X, **kw):
+    out = p.evaluate(X, return_as_dictionary=True, **kw)
+    return out["F"], out["G"], out["noise_seeds"].astype(np.int64)
+
+
+def test_fixed_noise_is_the_papers_one_seed_for_every_design():
+    p = StiffnessProblem(scheme="B", n_freq=1, noise_seed=4, **SHORT)
+    F, G, seeds = _f(p, FIG6_2, rows=np.array([7, 8]), run_seed=3)
+    assert seeds.tolist() == [[4], [4]]
+    res = simulate(*p.references(FIG6_2), p.config, seed=4)
+    ev = phys_obj.evaluate(res, idx=0)
+    np.testing.assert_array_equal(F[:, 0], ev["convergence_time"])
+    np.testing.assert_array_equal(F[:, 1], ev["convergence_accuracy"])
+
+
+def test_fresh_draws_differ_between_evaluations_and_replay_exactly():
+    p = StiffnessProblem(scheme="B", n_freq=1, noise="fresh", **SHORT)
+    x = np.vstack([FIG6, FIG6])
+    F, _, seeds = _f(p, x, rows=np.array([0, 1]), run_seed=0)
+    assert seeds[0, 0] != seeds[1, 0] and not np.array_equal(F[0], F[1])
+    again, _, seeds2 = _f(p, x[:1], rows=np.array([1]), run_seed=0)  # row 1 once more
+    assert seeds2[0, 0] == seeds[1, 0] and np.array_equal(again[0], F[1])
+    other, _, _ = _f(p, x[:1], rows=np.array([0]), run_seed=1)  # another run's row 0
+    assert not np.array_equal(other[0], F[0])
+    # without an evaluator the problem counts its own evaluations: still new draws
+    a, _, s1 = _f(StiffnessProblem(scheme="B", n_freq=1, noise="fresh", **SHORT), x)
+    assert s1[0, 0] != s1[1, 0] and s1[:, 0].tolist() == seeds[:, 0].tolist()
+
+
+def test_average_is_the_mean_over_k_common_seeds_and_reproducible():
+    p = StiffnessProblem(scheme="B", n_freq=1, noise="average", noise_samples=3,
+                         noise_seed=5, chunk=4, **SHORT)
+    F, G, seeds = _f(p, FIG6_2)
+    assert seeds.tolist() == [[5, 6, 7], [5, 6, 7]]  # common across designs
+    F2, G2, _ = _f(p, FIG6_2[::-1])
+    np.testing.assert_array_equal(F2[::-1], F)  # reproducible, batch-independent
+    singles = [_f(StiffnessProblem(scheme="B", n_freq=1, noise_seed=s, **SHORT), FIG6_2)
+               for s in (5, 6, 7)]
+    np.testing.assert_allclose(F, np.mean([s[0] for s in singles], axis=0), rtol=1e-12)
+    np.testing.assert_array_equal(G, np.max([s[1] for s in singles], axis=0))
+
+
+def test_information_needs_no_noise():
+    kw = dict(scheme="B", n_freq=1, noise="information", **SHORT)
+    F, G, seeds = _f(StiffnessProblem(noise_seed=0, **kw), FIG6_2)
+    F9, G9, _ = _f(StiffnessProblem(noise_seed=9, **kw), FIG6_2)
+    assert seeds.shape == (2, 0)  # no realisation scored it
+    np.testing.assert_array_equal(F, F9)
+    np.testing.assert_array_equal(G, G9)
+    assert np.all(np.isfinite(F)) and np.all(F[:, 0] <= 120.0)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"noise": "random"}, "noise must be one of"),
+    ({"noise_samples": 0}, "noise_samples must be an integer in [1, 1000]"),
+    ({"noise_seed": 2**50}, "noise_seed must be an integer in [0, "),
+    ({"heldout_seeds": -1}, "heldout_seeds must be an integer in [0, 100000]"),
+])
+def test_bad_noise_settings_are_one_line(kwargs, message):
+    with pytest.raises(ValueError, match=message.replace("[", r"\[").replace("]", r"\]")):
+        StiffnessProblem(**kwargs)
+
+
+def test_extra_metrics_write_heldout_and_floor_blocks():
+    from tmopt.evaluation.archive import ArchiveData
+
+    p = StiffnessProblem(scheme="B", n_freq=1, duration=300.0, heldout_seeds=4)
+    data = ArchiveData.empty(p.n_var, p.n_obj, p.n_ieq_constr)
+    data.X = FIG6_2
+    m = p.extra_metrics(p, data, np.array([0, 1]), 0)
+    h = m["heldout"]
+    assert h["n_seeds"] == 4 and h["seeds"] == [2**52, 2**52 + 3]
+    for q in ("convergence_time", "convergence_accuracy", "final_accuracy", "M",
+              "M(7e-11)", "M(5e-11)"):
+        assert set(h[q]) >= {"mean", "std", "median"}
+    scores = p.heldout_report(FIG6_2[:1], n_seeds=4)
+    assert h["M"]["mean"] == pytest.approx(scores["M_TM1"][0].mean())
+    assert 0.0 <= h["eq20_share"] <= 1.0
+    assert m["heldout_front"]["index"] == [0, 1] and len(m["heldout_front"]["M_mean"]) == 2
+    fl = m["floor"]
+    assert fl["final_accuracy_rms"] > 0 and fl["convergence_time"] == h["convergence_time"]["mean"]
+    assert isinstance(fl["below_floor"], list)
+
+
+def test_heldout_seeds_must_not_have_scored_the_search():
+    from tmopt.evaluation.archive import ArchiveData
+
+    p = StiffnessProblem(scheme="B", n_freq=1, duration=60.0, heldout_seeds=2)
+    data = ArchiveData.empty(p.n_var, p.n_obj, p.n_ieq_constr)
+    data.X = FIG6_2
+    data.noise_seeds = np.array([[0], [2**52 + 1]])  # a held-out seed used in the search
+    with pytest.raises(ValueError, match="also scored the search"):
+        p.extra_metrics(p, data, np.array([0]), 0)
+
+
+def test_floor_flags_single_draw_accuracies_below_it_as_luck():
+    from tmopt.problems.heldout import floor_block
+
+    p = StiffnessProblem()
+    ident = {"final_accuracy_TM1": 2.91e-12, "convergence_time_TM1": 112.1,
+             "convergence_accuracy_TM1": 1.44e-10, "M_TM1": 3.30}  # the paper's MGSAEA-IPC
+    flags = floor_block(p, None, ident)["below_floor"]
+    assert flags == ["identification.final_accuracy_TM1",
+                     "identification.convergence_accuracy_TM1", "identification.M_TM1"]
+    honest = {"final_accuracy_TM1": 2e-10, "convergence_time_TM1": 200.0,
+              "convergence_accuracy_TM1": 4e-10, "M_TM1": 7.0}
+    assert floor_block(p, None, honest)["below_floor"] == []
+
+
+@pytest.mark.parametrize("mode", ["fixed", "fresh", "average", "information"])
+def test_resume_by_replay_is_exact_in_every_noise_mode(tmp_path, mode):
+    """A run cut after 20 of 40 evaluations and run again ends exactly where the
+    uninterrupted run does: archive (noise seeds included) and held-out scores."""
+    from tmopt.algorithms.nsga2 import NSGA2
+    from tmopt.evaluation.archive import read_archive, write_archive
+    from tmopt.run.runner import run_optimisation
+
+    def go(outdir):
+        p = StiffnessProblem(scheme="B", n_freq=1, duration=60.0, noise=mode, noise_samples=2,
+                             heldout_seeds=2)
+        return run_optimisation(p, NSGA2(pop_size=10), budget=40, seed=5, outdir=outdir,
+                                config_hash="h", progress=False, plots=False,
+                                extra_metrics=p.extra_metrics)
+
+    whole = go(tmp_path / "whole")
+    cut = tmp_path / "cut"
+    first = go(cut)
+    (cut / "metrics.json").unlink()
+    data = read_archive(cut / "archive.h5")
+    write_archive(cut / "archive.h5", data.rows(0, 20), data.attrs)  # killed after 20
+    again = go(cut)
+    assert again.resumed_from == 20
+    a, b = whole.archive, again.archive
+    assert np.array_equal(a.X, b.X) and np.array_equal(a.noise_seeds, b.noise_seeds)
+    assert np.array_equal(a.F, b.F, equal_nan=True) and np.array_equal(a.G, b.G, equal_nan=True)
+    width = {"fixed": 1, "fresh": 1, "average": 2, "information": 0}[mode]
+    assert a.noise_seeds.shape == (40, width)
+    for key in ("chosen", "identification", "heldout", "heldout_front", "floor"):
+        assert again.metrics[key] == whole.metrics[key] == first.metrics[key]

@@ -44,7 +44,7 @@ def assert_seed_decides_the_archive(make, problem, budget: int) -> None:
 
 
 def algorithm_from_yaml(name: str, **extra):
-    """The algorithm its ``conf/algorithm/<name>.yaml`` builds (keys checked against
+    """The algorithm its ``tmopt/conf/algorithm/<name>.yaml`` builds (keys checked against
     the constructor's signature), with ``extra`` keyword arguments."""
     node = option_config("algorithm", name)
     cls = check_node("algorithm", node, name)

@@ -34,8 +34,8 @@ def test_ipc_with_default_gp_on_mw3_n10_budget_150_reaches_feasibility():
     assert res.metrics["chosen"]["feasible"]
 
 
-@pytest.mark.skipif(not (REPO / "conf" / "surrogate" / "gp.yaml").exists(),
-                    reason="conf/surrogate/gp.yaml is not there yet")
+@pytest.mark.skipif(not (REPO / "tmopt" / "conf" / "surrogate" / "gp.yaml").exists(),
+                    reason="tmopt/conf/surrogate/gp.yaml is not there yet")
 def test_cli_runs_mgsaea_ipc_with_the_gp(tmp_path):
     out = subprocess.run(
         [sys.executable, "-m", "tmopt", "problem=mw3", "problem.n_var=6", "algorithm=mgsaea_ipc",

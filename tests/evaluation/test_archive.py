@@ -138,3 +138,24 @@ def test_atomic_write_text_failure_keeps_old_content(tmp_path, monkeypatch):
     monkeypatch.undo()
     assert path.read_text() == "old"
     assert not list(tmp_path.glob("*.tmp"))
+
+
+def test_noise_seeds_round_trip_pad_and_default(tmp_path):
+    """Which noise realisations scored each row: kept per row; narrower batches are
+    padded with -1; archives without the dataset read as 'none known' (width 0)."""
+    path = tmp_path / "archive.h5"
+    arch = _archive(path)
+    a, b = _rows(2, 0.0), _rows(3, 10.0)
+    a.noise_seeds = np.array([[0, 1, 2], [0, 1, 2]])
+    b.noise_seeds = np.array([[2**52 - 1], [5], [6]])
+    arch.append(a)
+    arch.append(b)
+    data = read_archive(path)
+    assert data.noise_seeds.tolist() == [[0, 1, 2], [0, 1, 2], [2**52 - 1, -1, -1],
+                                         [5, -1, -1], [6, -1, -1]]
+    assert data.rows(1, 3).noise_seeds.tolist() == [[0, 1, 2], [2**52 - 1, -1, -1]]
+    with h5py.File(path, "a") as h5:
+        del h5["noise_seeds"]
+    assert read_archive(path).noise_seeds.shape == (5, 0)
+    with pytest.raises(ValueError, match=r"noise_seeds must have shape \(2, K\)"):
+        ArchiveData(**{**_rows(2).__dict__, "noise_seeds": np.zeros((3, 1))})

@@ -162,3 +162,43 @@ def test_a_resume_killed_while_replaying_leaves_the_whole_archive_on_disk(tmp_pa
     ev.evaluate(_designs([0.6]))  # the first real batch writes replayed + new rows
     data = read_archive(path)
     assert len(data) == 5 and np.array_equal(data.X[4:], _designs([0.6]))
+
+
+class Noisy(Toy):
+    """Reports the context the evaluator gives (rows, run seed) as its 'noise seeds'."""
+
+    def __init__(self):
+        super().__init__()
+        self.requires_kwargs = True
+        self.seeds_per_evaluation = 2
+
+    def _evaluate(self, X, out, *args, rows=None, run_seed=0, **kwargs):
+        super()._evaluate(X, out)
+        out["noise_seeds"] = np.column_stack([rows, np.full(len(X), 100 + run_seed)])
+
+
+def test_the_problem_learns_its_rows_and_run_seed_and_the_archive_its_noise_seeds(tmp_path):
+    path = tmp_path / "archive.h5"
+    ev = Evaluator(Noisy(), 10, EvaluationArchive(path, 3, 2, 1), seed=7)
+    ev.evaluate(_designs([0.2, 0.3]))
+    ev.evaluate(_designs([0.95, 0.4, 0.5]))  # raises as a batch: evaluated one by one
+    data = read_archive(path)
+    assert data.noise_seeds.tolist() == [[0, 107], [1, 107], [-1, -1], [3, 107], [4, 107]]
+    # resumed by replay: the archived seeds come back with the rows
+    again = Evaluator(Noisy(), 10, replay=data, seed=7)
+    again.evaluate(_designs([0.2, 0.3]))
+    again.evaluate(_designs([0.95, 0.4, 0.5]))
+    assert again.archive.data.noise_seeds.tolist() == data.noise_seeds.tolist()
+    # a problem without noise records none
+    plain = Evaluator(Toy(), 10)
+    plain.evaluate(_designs([0.2]))
+    assert plain.archive.data.noise_seeds.shape == (1, 0)
+
+
+def test_the_isolated_worker_passes_the_context_too():
+    ev = Evaluator(Noisy(), 10, seed=3, time_limit=120.0)
+    try:
+        ev.evaluate(_designs([0.2, 0.3]))
+    finally:
+        ev.close()
+    assert ev.archive.data.noise_seeds.tolist() == [[0, 103], [1, 103]]

@@ -10,7 +10,7 @@ from tmopt.problems.suites import SUITE_PROBLEMS, PymooBenchmark, default_n_var
 from tmopt.run.cli import preflight
 from tmopt.run.config import ConfigError
 
-CONF = Path(__file__).resolve().parents[2] / "conf" / "problem"
+CONF = Path(__file__).resolve().parents[2] / "tmopt" / "conf" / "problem"
 
 
 def test_every_suite_problem_has_a_config_and_every_config_builds():

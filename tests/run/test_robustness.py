@@ -293,8 +293,8 @@ def test_fuzzed_recording_bytes_are_refused_or_read_unchanged(tmp_path):
     assert tally["refused"] >= 60
 
 
-# ---- determinism: every algorithm, discovered from conf/algorithm ---------------------
-ALGORITHMS = sorted(p.stem for p in (REPO / "conf" / "algorithm").glob("*.yaml"))
+# ---- determinism: every algorithm, discovered from tmopt/conf/algorithm ---------------------
+ALGORITHMS = sorted(p.stem for p in (REPO / "tmopt" / "conf" / "algorithm").glob("*.yaml"))
 
 
 def _small_run(algorithm: str, seed: int):

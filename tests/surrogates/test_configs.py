@@ -1,4 +1,4 @@
-"""conf/surrogate/*.yaml build the models the way algorithms receive them (a factory)."""
+"""tmopt/conf/surrogate/*.yaml build the models the way algorithms receive them (a factory)."""
 
 from __future__ import annotations
 

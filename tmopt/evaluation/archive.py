@@ -34,7 +34,9 @@ class ArchiveData:
 
     F and G hold the raw values returned by the problem (NaN where the design failed);
     ``failed`` marks designs whose evaluation raised, returned non-finite values or
-    timed out, and ``reason`` says why ("" when it did not fail).
+    timed out, and ``reason`` says why ("" when it did not fail).  ``seed`` is the run's
+    seed; ``noise_seeds`` (n, K) the noise realisations that scored each row (a noisy
+    problem's ``out["noise_seeds"]``; -1 pads, K = 0 for problems without noise).
     """
 
     X: np.ndarray
@@ -46,6 +48,16 @@ class ArchiveData:
     wall_time: np.ndarray
     batch: np.ndarray
     attrs: dict = field(default_factory=dict)
+    noise_seeds: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        n = len(self.X)
+        seeds = np.zeros((n, 0)) if self.noise_seeds is None else np.asarray(self.noise_seeds)
+        if seeds.ndim == 1 and len(seeds) == n:
+            seeds = seeds[:, None]
+        if seeds.ndim != 2 or len(seeds) != n:
+            raise ValueError(f"noise_seeds must have shape ({n}, K); got {seeds.shape}")
+        self.noise_seeds = seeds.astype(np.int64)
 
     @classmethod
     def empty(cls, n_var: int, n_obj: int, n_constr: int) -> ArchiveData:
@@ -72,6 +84,9 @@ class ArchiveData:
         self.seed = np.concatenate([self.seed, other.seed])
         self.wall_time = np.concatenate([self.wall_time, other.wall_time])
         self.batch = np.concatenate([self.batch, other.batch])
+        width = max(self.noise_seeds.shape[1], other.noise_seeds.shape[1])
+        self.noise_seeds = np.vstack([_padded(self.noise_seeds, width),
+                                      _padded(other.noise_seeds, width)])
 
     def rows(self, start: int, stop: int) -> ArchiveData:
         return ArchiveData(
@@ -84,7 +99,15 @@ class ArchiveData:
             wall_time=self.wall_time[start:stop],
             batch=self.batch[start:stop],
             attrs=dict(self.attrs),
+            noise_seeds=self.noise_seeds[start:stop],
         )
+
+
+def _padded(seeds: np.ndarray, width: int) -> np.ndarray:
+    """``seeds`` (n, k) widened to (n, width) with -1 ("no seed")."""
+    out = np.full((len(seeds), width), -1, dtype=np.int64)
+    out[:, :seeds.shape[1]] = seeds
+    return out
 
 
 class EvaluationArchive:
@@ -128,6 +151,7 @@ def _write_h5(tmp: str, data: ArchiveData, attrs: dict) -> None:
         h5.create_dataset("seed", data=data.seed)
         h5.create_dataset("wall_time", data=data.wall_time)
         h5.create_dataset("batch", data=data.batch)
+        h5.create_dataset("noise_seeds", data=data.noise_seeds)
 
 
 def read_archive(path: str | Path) -> ArchiveData:
@@ -149,6 +173,9 @@ def read_archive(path: str | Path) -> ArchiveData:
                 wall_time=h5["wall_time"][()],
                 batch=h5["batch"][()],
                 attrs=attrs,
+                # archives written before noise seeds were recorded: none known
+                noise_seeds=h5["noise_seeds"][()] if "noise_seeds" in h5
+                else np.zeros((len(h5["X"]), 0), dtype=np.int64),
             )
     except ArchiveError:
         raise
@@ -156,7 +183,7 @@ def read_archive(path: str | Path) -> ArchiveData:
         raise ArchiveError(f"{path}: cannot read the evaluation archive ({exc})") from exc
     n = len(data.X)
     sizes = {len(data.F), len(data.G), len(data.failed), len(data.reason), len(data.seed),
-             len(data.wall_time), len(data.batch)}
+             len(data.wall_time), len(data.batch), len(data.noise_seeds)}
     if sizes != {n}:
         raise ArchiveError(f"{path}: datasets have unequal lengths {sorted(sizes)}")
     return data

@@ -157,12 +157,13 @@ class Evaluator:
 
     def _evaluate_for_real(self, X: np.ndarray) -> ArchiveData:
         t0 = time.perf_counter()
+        rows = np.arange(self.n_evals, self.n_evals + len(X))
         try:
-            F, G, reason = self._call_problem(X)
+            F, G, reason, noise = self._call_problem(X, rows)
         except Exception as exc:  # noqa: BLE001 - isolate the failing designs
             log.warning("problem %s: batch evaluation raised %r; evaluating designs one by one",
                         self.problem.name, exc)
-            F, G, reason = self._one_by_one(X)
+            F, G, reason, noise = self._one_by_one(X, rows)
         wall = (time.perf_counter() - t0) / len(X)
         F, G, failed, reason = _mark_non_finite(F, G, reason)
         for i in np.flatnonzero(failed):
@@ -170,16 +171,22 @@ class Evaluator:
                         self.n_evals + i, reason[i])
         return ArchiveData(X=X.copy(), F=F, G=G, failed=failed, reason=reason,
                            seed=np.full(len(X), self.seed, dtype=np.int64),
-                           wall_time=np.full(len(X), wall), batch=np.zeros(len(X), np.int64))
+                           wall_time=np.full(len(X), wall), batch=np.zeros(len(X), np.int64),
+                           noise_seeds=noise)
 
     def close(self) -> None:
         """Stop the evaluation worker, if any."""
         if self._isolated is not None:
             self._isolated.close()
 
-    def _call_problem(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
-        out = self._isolated.evaluate(X) if self._isolated is not None \
-            else self.problem.evaluate(X, return_as_dictionary=True)
+    def _call_problem(self, X: np.ndarray, rows: np.ndarray):
+        """``F, G, reason, noise_seeds`` of a batch.  The problem is told the batch's
+        archive rows and the run seed (``rows=``, ``run_seed=``): a noisy problem draws
+        its realisations from them (pymoo hands such keywords only to problems that set
+        ``requires_kwargs``), so a re-evaluation of the same rows meets the same noise."""
+        context = {"rows": rows, "run_seed": self.seed}
+        out = self._isolated.evaluate(X, **context) if self._isolated is not None \
+            else self.problem.evaluate(X, return_as_dictionary=True, **context)
         n, p = len(X), self.problem
         F = np.asarray(out["F"], dtype=float).reshape(n, p.n_obj)
         G = (np.asarray(out["G"], dtype=float).reshape(n, p.n_ieq_constr)
@@ -187,21 +194,28 @@ class Evaluator:
         reason = out.get("reason")
         reason = [str(r) if r is not None else "" for r in reason] if reason is not None \
             else [""] * n
-        return F, G, reason
+        noise = out.get("noise_seeds")  # exact: every noise seed is below 2^53
+        noise = np.zeros((n, 0), np.int64) if noise is None else \
+            np.asarray(noise).astype(np.int64).reshape(n, -1)
+        return F, G, reason, noise
 
-    def _one_by_one(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    def _one_by_one(self, X: np.ndarray, rows: np.ndarray):
         p = self.problem
         F = np.full((len(X), p.n_obj), np.nan)
         G = np.full((len(X), p.n_ieq_constr), np.nan)
         reason = [""] * len(X)
+        noise = [np.full((1, getattr(p, "seeds_per_evaluation", 0)), -1, np.int64)] * len(X)
         for i, x in enumerate(X):
             try:
-                F[i:i + 1], G[i:i + 1], reason[i:i + 1] = self._call_problem(x[None, :])
+                F[i:i + 1], G[i:i + 1], reason[i:i + 1], noise[i] = self._call_problem(
+                    x[None, :], rows[i:i + 1])
             except EvaluationTimeout as exc:
                 reason[i] = str(exc)
             except Exception as exc:  # noqa: BLE001 - one design failing must not end the run
                 reason[i] = f"evaluation raised {type(exc).__name__}: {exc}"
-        return F, G, reason
+        width = max(a.shape[1] for a in noise)
+        return F, G, reason, np.vstack([np.pad(a, ((0, 0), (0, width - a.shape[1])),
+                                               constant_values=-1) for a in noise])
 
 
 def _mark_non_finite(F, G, reason):

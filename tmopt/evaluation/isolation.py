@@ -24,11 +24,12 @@ def _serve(problem, conn) -> None:
     """Worker loop: say ready, then evaluate every batch received until told to stop."""
     conn.send(("ready",))
     while True:
-        X = conn.recv()
-        if X is None:
+        message = conn.recv()
+        if message is None:
             return
+        X, context = message
         try:
-            out = problem.evaluate(X, return_as_dictionary=True)
+            out = problem.evaluate(X, return_as_dictionary=True, **context)
             conn.send(("ok", {k: np.asarray(v) for k, v in out.items()}))
         except Exception as exc:  # noqa: BLE001 - reported back to the parent
             conn.send(("raised", f"{type(exc).__name__}: {exc}", traceback.format_exc()))
@@ -63,11 +64,12 @@ class IsolatedProblem:
             self.kill()
             raise RuntimeError(f"the evaluation worker did not start within {startup_timeout} s")
 
-    def evaluate(self, X: np.ndarray, startup_timeout: float = 300.0) -> dict:
-        """``problem.evaluate(X, return_as_dictionary=True)`` or raise on timeout/error."""
+    def evaluate(self, X: np.ndarray, startup_timeout: float = 300.0, **context) -> dict:
+        """``problem.evaluate(X, return_as_dictionary=True, **context)`` or raise on
+        timeout/error (``context``: the evaluator's ``rows`` and ``run_seed``)."""
         if self._proc is None or not self._proc.is_alive():
             self._start(startup_timeout)
-        self._conn.send(np.asarray(X, dtype=float))
+        self._conn.send((np.asarray(X, dtype=float), context))
         if not self._conn.poll(self.limit * len(X)):
             self.kill()
             raise EvaluationTimeout(f"evaluation exceeded the time limit of "

@@ -612,14 +612,40 @@ def _record(i, n, pos_n, meas, acc, u, gains, par, ref, out_ch, out_gain, summar
 
 @nb.njit(parallel=True, cache=True)
 def batch_kernel(
-    ref1, ref2, noise, par, c0, b0, out_ch, out_th, out_gain, summary, status, record, pp, ps
+    ref1, ref2, noise, noise_of, par, c0, b0, out_ch, out_th, out_gain, summary, status,
+    record, pp, ps,
 ):
-    """All designs of a batch in parallel (one design per thread iteration)."""
+    """All designs of a batch in parallel (one design per thread iteration).
+
+    ``noise`` (S, 14, N) holds S noise realisations and design ``i`` runs with
+    ``noise[noise_of[i]]``: designs x seeds in one launch, each row bit-identical to a
+    run of that design alone with that seed (run_design sees the same 2-D array).
+    """
     for i in nb.prange(ref1.shape[0]):
         run_design(
-            i, ref1, ref2, noise, par, c0, b0, out_ch, out_th, out_gain, summary, status,
-            record, pp, ps,
+            i, ref1, ref2, noise[noise_of[i]], par, c0, b0, out_ch, out_th, out_gain,
+            summary, status, record, pp, ps,
         )
+
+
+@nb.njit(parallel=True, cache=True)
+def rls_covariance_kernel(psi, lam, p0, idx, out):
+    """Eq. 16's covariance recursion alone: ``out[i, n, j] = P_n[idx[j], idx[j]]``.
+
+    ``psi`` (B, N, p) scaled regressors, ``p0`` (p, p) the initial P.  ``P_n`` does not
+    depend on the measured outputs, so :func:`rls_update` runs on ``y = 0``; it is the
+    very recursion of the closed loop, so ``sigma_e^2 P_n`` is the estimate's covariance
+    on the same regressors (``tmopt.physics.information``).
+    """
+    n_par = psi.shape[2]
+    for i in nb.prange(psi.shape[0]):
+        theta = np.zeros(n_par)
+        P = p0.copy()
+        ppsi = np.empty(n_par)
+        for n in range(psi.shape[1]):
+            rls_update(theta, P, psi[i, n], 0.0, lam, ppsi)
+            for j in range(idx.shape[0]):
+                out[i, n, j] = P[idx[j], idx[j]]
 
 
 @nb.njit(parallel=True, cache=True)

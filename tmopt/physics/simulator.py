@@ -329,7 +329,9 @@ class SimulationResult:
     per axis: the quantities of Eq. 20 on the simulated run.  ``gains`` (6, B, N) holds the
     sensitive-axis gains in :data:`GAIN_NAMES` order (``None`` when only estimates are
     recorded).  ``theta_hat`` is NaN in the columns the RLS does not identify.
-    ``perturbations`` is what the run was given (None: the nominal model).
+    ``perturbations`` is what the run was given (None: the nominal model).  ``seeds``
+    (B,) is the noise seed of every design; ``seed`` the common one (-1 when the designs
+    had seeds of their own).
     """
 
     time: np.ndarray
@@ -347,6 +349,7 @@ class SimulationResult:
     gains: np.ndarray | None
     config: SimulationConfig
     seed: int
+    seeds: np.ndarray | None = None
     perturbations: Perturbations | None = None
 
     def __getattr__(self, name: str) -> np.ndarray:
@@ -440,21 +443,24 @@ def prepare(
     """Validated kernel inputs and zeroed outputs (shared by the batch and reference paths)."""
     if not isinstance(config, SimulationConfig):
         raise ValueError("config must be a SimulationConfig")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed must be an integer in [0, inf); got {seed!r}")
     t = sample_times(config.duration, config.sample_rate)
     r1, r2 = _reference("ref1", ref1, t, config), _reference("ref2", ref2, t, config)
     if r1.shape[0] != r2.shape[0]:
         raise ValueError(f"ref1 and ref2 must hold the same number of designs; "
                          f"got {r1.shape[0]} and {r2.shape[0]}")  # fmt: skip
     b, n = r1.shape
+    seeds = _seeds(seed, b)
+    unique, noise_of = np.unique(seeds, return_inverse=True)
     record = config.record == "full"
     pp, ps = _pack_perturbations(perturbations, config, n)
+    sigmas = config.sigmas()
     return {
         "time": t,
         "ref1": r1,
         "ref2": r2,
-        "noise": noise_realisation(int(seed), n, config.sigmas()),
+        "seeds": seeds,
+        "noise": np.stack([noise_realisation(int(s), n, sigmas) for s in unique]),
+        "noise_of": np.ascontiguousarray(noise_of.reshape(-1), dtype=np.int64),
         "par": _pack_parameters(config),
         "c0": np.asarray(config.control.centres, dtype=np.float64),
         "b0": float(config.control.width),
@@ -471,7 +477,18 @@ def prepare(
     }
 
 
-def _finish(io: dict, config: SimulationConfig, seed: int) -> SimulationResult:
+def _seeds(seed, b: int) -> np.ndarray:
+    """Noise seed of every design (B,) from one seed or one seed per design."""
+    values = [seed] * b if np.ndim(seed) == 0 else list(np.asarray(seed).tolist())
+    if np.ndim(seed) > 1 or len(values) != b or not all(
+            isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
+            and 0 <= v < 2**63 for v in values):  # fmt: skip
+        raise ValueError(f"seed must be an integer in [0, 2^63) or one such integer per "
+                         f"design ({b}); got {seed!r}")
+    return np.array(values, dtype=np.int64)
+
+
+def _finish(io: dict, config: SimulationConfig, seed) -> SimulationResult:
     code, last = io["status"][:, 0], io["status"][:, 1]
     diverged = code != cl.OK
     bound = config.divergence_bound
@@ -495,29 +512,32 @@ def _finish(io: dict, config: SimulationConfig, seed: int) -> SimulationResult:
         max_abs_command=io["summary"][:, cl.SUM_UMAX : cl.SUM_UMAX + 4].copy(),
         gains=io["out_gain"] if io["record"] else None,
         config=config,
-        seed=int(seed),
+        seed=int(seed) if np.ndim(seed) == 0 else -1,
+        seeds=io["seeds"],
         perturbations=io["perturbations"],
     )
 
 
-_KERNEL_ARGS = ("ref1", "ref2", "noise", "par", "c0", "b0", "out_ch", "out_th", "out_gain",
-                "summary", "status", "record", "pp", "ps")  # fmt: skip
+_KERNEL_ARGS = ("ref1", "ref2", "noise", "noise_of", "par", "c0", "b0", "out_ch", "out_th",
+                "out_gain", "summary", "status", "record", "pp", "ps")  # fmt: skip
 
 
 def simulate(
     ref1: MultiSine | np.ndarray,
     ref2: MultiSine | np.ndarray,
     config: SimulationConfig | None = None,
-    seed: int = 0,
+    seed: int | np.ndarray = 0,
     perturbations: Perturbations | None = None,
 ) -> SimulationResult:
     """Closed-loop simulation + online identification of B designs at once (compiled).
 
     ``ref1`` / ``ref2``: sensitive-axis references of TM1 / TM2, each a :class:`MultiSine`
     with B designs or an array (B, N) sampled at ``config``'s grid.  ``seed`` selects the
-    noise realisation, common to all designs (so design i's result does not depend on the
-    batch it is in).  ``perturbations`` (default None: the nominal model) injects
-    instrument deviations, see :class:`Perturbations`.
+    noise realisation: one integer, common to all designs (so design i's result does not
+    depend on the batch it is in), or one integer per design (B,) -- designs x seeds in one
+    kernel launch, e.g. a design repeated under K seeds; every row is bit-identical to that
+    design run alone with its seed.  ``perturbations`` (default None: the nominal model)
+    injects instrument deviations, see :class:`Perturbations`.
     """
     config = SimulationConfig() if config is None else config
     io = prepare(ref1, ref2, config, seed, perturbations)
@@ -529,7 +549,7 @@ def simulate_reference(
     ref1: MultiSine | np.ndarray,
     ref2: MultiSine | np.ndarray,
     config: SimulationConfig | None = None,
-    seed: int = 0,
+    seed: int | np.ndarray = 0,
     perturbations: Perturbations | None = None,
 ) -> SimulationResult:
     """The same model run design by design in the plain Python interpreter (slow).
@@ -542,6 +562,7 @@ def simulate_reference(
     config = SimulationConfig() if config is None else config
     io = prepare(ref1, ref2, config, seed, perturbations)
     args = [io[k] for k in _KERNEL_ARGS]
+    noise, noise_of = args[2], args[3]
     for i in range(io["ref1"].shape[0]):
-        cl.run_design(i, *args)
+        cl.run_design(i, *args[:2], noise[noise_of[i]], *args[4:])
     return _finish(io, config, seed)

@@ -30,6 +30,19 @@ test mass (TM1 by
 default: the one whose stiffness is identified) has priority 0 — the "key individual
 constraints" of MGSAEA-IPC. A design whose closed loop diverges is reported as failed
 with the simulator's reason (the evaluator then treats it as infeasible).
+
+Noise (``noise``, docs/noise.md): the objectives of one evaluation are a noise draw.
+``fixed`` (the paper's protocol) scores every design on one realisation (``noise_seed``);
+``fresh`` draws a new realisation for every evaluation (a seed hashed from the noise
+seed, the run seed and the archive row, so a resumed run replays exactly); ``average``
+scores each design by the mean over K realisations ``noise_seed .. noise_seed + K - 1``,
+common to every design; ``information`` predicts the expected objectives from the RLS
+information matrix of the design's noise-free realised motion and the known noise level
+(:mod:`tmopt.physics.information`), with no draw at all.  Every evaluation returns the
+seeds that scored it (``out["noise_seeds"]``, (n, K), -1 padded).  After a run, the chosen
+design and the final front are re-scored on held-out seeds no search can draw
+(:meth:`StiffnessProblem.heldout_report`), beside the physical floor
+(:mod:`tmopt.physics.floor`).
 """
 
 from __future__ import annotations
@@ -41,11 +54,14 @@ from dataclasses import replace
 import numpy as np
 
 from tmopt.metrics.identification import metric_m_at_threshold
+from tmopt.physics import information
 from tmopt.physics import objectives as phys_obj
 from tmopt.physics.control import ControllerSettings
 from tmopt.physics.excitation import MultiSine
+from tmopt.physics.noise import USER_SEEDS, fresh_seeds, heldout_seeds
 from tmopt.physics.scenario import config_at_rate
 from tmopt.physics.simulator import SimulationConfig, SimulationResult, simulate
+from tmopt.problems import heldout
 from tmopt.problems.base import ConstraintGroup, ExpensiveProblem
 
 SCHEMES = {
@@ -58,6 +74,10 @@ SCHEMES = {
 STRICT_THRESHOLDS = (7e-11, 5e-11)
 #: Where Eq. 20 is evaluated: on the simulated run or on the reference motion.
 CONSTRAINT_MODES = ("realised", "reference")
+#: How an evaluation meets the noise (module docstring, docs/noise.md).
+NOISE_MODES = ("fixed", "fresh", "average", "information")
+#: Designs per noise-free run with every channel recorded (information mode): ~2 MB each.
+_FULL_RECORD_CHUNK = 16
 
 
 class StiffnessProblem(ExpensiveProblem):
@@ -70,8 +90,13 @@ class StiffnessProblem(ExpensiveProblem):
         period_bounds: ``(shortest, longest)`` period [s]; ``w_i = 2 pi / period``.
         phase_bounds: ``(low, high)`` of every ``theta_i`` [rad].
         key_tm: Test mass whose constraints have priority 0 (1 or 2).
-        noise_seed: Noise realisation used for every evaluation (common random numbers,
-            so objectives are a deterministic function of the design).
+        noise: ``"fixed"`` | ``"fresh"`` | ``"average"`` | ``"information"`` (module
+            docstring).
+        noise_seed: The ``fixed`` realisation, the first of ``average``'s K and the key of
+            ``fresh``'s hash; in [0, 2^50 - noise_samples].
+        noise_samples: K, the realisations ``average`` scores each design on (1..1000).
+        heldout_seeds: Held-out realisations the chosen design and the final front are
+            re-scored on after a run (0: none; >= 32 for a figure worth reporting).
         epsilon: Convergence threshold of Eq. 18 [s^-2].
         m_weights: Weights of Eq. 29 (time, accuracy).
         duration, sample_rate, controller, f_max, alpha1, gap, alpha2: simulator settings
@@ -90,7 +115,8 @@ class StiffnessProblem(ExpensiveProblem):
             :data:`tmopt.physics.scenario.Y_AXES`
             ("drag_free": Table 1; "round1": the first round's f_B and slow y PID).
         jacobian: Plant-Jacobian sign of the FRBF-PID's learning law ("plus" | "online").
-        chunk: Designs simulated per call (bounds memory; results do not depend on it).
+        chunk: Runs (designs x noise seeds) simulated per call (bounds memory; results
+            do not depend on it).
         name: Problem name.
     """
 
@@ -103,7 +129,10 @@ class StiffnessProblem(ExpensiveProblem):
         period_bounds: Sequence[float] = (60.0, 1200.0),
         phase_bounds: Sequence[float] = (0.0, 2 * math.pi),
         key_tm: int = 1,
+        noise: str = "fixed",
         noise_seed: int = 0,
+        noise_samples: int = 8,
+        heldout_seeds: int = 32,
         epsilon: float = 1e-10,
         m_weights: Sequence[float] = (1 / 60, 1e10),
         duration: float = 1200.0,
@@ -129,9 +158,18 @@ class StiffnessProblem(ExpensiveProblem):
         _check_int(name, "n_freq", n_freq, 1, 8)
         _check_int(name, "key_tm", key_tm, 1, 2)
         _check_int(name, "chunk", chunk, 1, 10_000)
-        _check_int(name, "noise_seed", noise_seed, 0, 2**63 - 1)
+        if noise not in NOISE_MODES:
+            raise ValueError(f"problem {name}: noise must be one of {NOISE_MODES}, "
+                             f"got {noise!r}")
+        _check_int(name, "noise_samples", noise_samples, 1, 1000)
+        _check_int(name, "noise_seed", noise_seed, USER_SEEDS[0],
+                   USER_SEEDS[1] - int(noise_samples))
+        _check_int(name, "heldout_seeds", heldout_seeds, 0, 100_000)
         self.scheme, self.n_freq, self.key_tm = scheme, int(n_freq), int(key_tm)
         self.noise_seed, self.chunk = int(noise_seed), int(chunk)
+        self.noise, self.noise_samples = noise, int(noise_samples)
+        self.n_heldout = int(heldout_seeds)
+        self._fresh_rows = 0  # fresh draws without an evaluator: rows counted here
         self.epsilon = _positive(name, "epsilon", epsilon)
         self.m_weights = tuple(float(w) for w in m_weights)
         if constraints not in CONSTRAINT_MODES:
@@ -160,7 +198,7 @@ class StiffnessProblem(ExpensiveProblem):
                   for q in ("convergence_time", "convergence_accuracy")]
         super().__init__(n_var=len(lo), n_obj=len(onames), n_ieq_constr=len(cnames), xl=lo,
                          xu=hi, name=name, constraint_groups=groups, objective_names=onames,
-                         constraint_names=cnames)
+                         constraint_names=cnames, requires_kwargs=True)
 
     # ---- layout ------------------------------------------------------------------------
     def _bounds(self, name, amplitude_bounds, period_bounds, phase_bounds):
@@ -203,36 +241,87 @@ class StiffnessProblem(ExpensiveProblem):
         return refs[1], refs[2]
 
     # ---- evaluation --------------------------------------------------------------------
-    def simulate_designs(self, X: np.ndarray, record: str = "estimates") -> SimulationResult:
-        """Closed-loop simulation of designs ``X`` with this problem's noise realisation."""
+    def simulate_designs(self, X: np.ndarray, record: str = "estimates",
+                         seed=None) -> SimulationResult:  # fmt: skip
+        """Closed-loop simulation of designs ``X``: with the ``fixed`` realisation, or
+        ``seed`` (one seed or one per design)."""
         ref1, ref2 = self.references(X)
         cfg = self.config if record == self.config.record else \
             replace(self.config, record=record)
-        return simulate(ref1, ref2, cfg, seed=self.noise_seed)
+        return simulate(ref1, ref2, cfg, seed=self.noise_seed if seed is None else seed)
 
-    def _evaluate(self, X, out, *args, **kwargs):
+    @property
+    def seeds_per_evaluation(self) -> int:
+        """Noise realisations that score one evaluation (0 for ``information``)."""
+        return {"fixed": 1, "fresh": 1, "average": self.noise_samples,
+                "information": 0}[self.noise]  # fmt: skip
+
+    def noise_seeds(self, n: int, rows=None, run_seed: int = 0) -> np.ndarray:
+        """Seeds scoring ``n`` evaluations, (n, K) int64: ``rows`` are their archive rows
+        (``fresh``; without them the problem counts its own evaluations)."""
+        if self.noise == "fresh":
+            if rows is None:
+                rows = np.arange(self._fresh_rows, self._fresh_rows + n)
+                self._fresh_rows += n
+            return fresh_seeds(self.noise_seed, run_seed, np.asarray(rows)).reshape(n, 1)
+        base = self.noise_seed + np.arange(self.seeds_per_evaluation, dtype=np.int64)
+        return np.tile(base, (n, 1))
+
+    def _evaluate(self, X, out, *args, rows=None, run_seed: int = 0, **kwargs):
+        seeds = self.noise_seeds(len(X), rows, run_seed)
+        per_call = self.chunk if self.noise != "information" else \
+            min(self.chunk, _FULL_RECORD_CHUNK)
+        step = max(1, per_call // max(1, seeds.shape[1]))
         F, G, reason = [], [], []
-        for start in range(0, len(X), self.chunk):
-            f, g, r = self._evaluate_chunk(X[start:start + self.chunk])
+        for start in range(0, len(X), step):
+            f, g, r = self._evaluate_chunk(X[start:start + step], seeds[start:start + step])
             F.append(f)
             G.append(g)
             reason += r
         out["F"] = np.vstack(F)
         out["G"] = np.vstack(G)
         out["reason"] = np.array(reason, dtype=object)
+        out["noise_seeds"] = seeds
 
-    def _evaluate_chunk(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
-        result = self.simulate_designs(X)
+    def _evaluate_chunk(self, X: np.ndarray, seeds: np.ndarray):
+        if self.noise == "information":
+            return self._predicted_chunk(X)
+        k = seeds.shape[1]
+        result = self.simulate_designs(np.repeat(X, k, axis=0), seed=seeds.ravel())
         cols = []
         for tm in self.objective_tms:
             obj = phys_obj.evaluate(result, idx=tm - 1, eps=self.epsilon, weights=self.m_weights)
             cols += [obj["convergence_time"], obj["convergence_accuracy"]]
+        F = np.stack(cols, axis=1).reshape(len(X), k, -1).mean(axis=1)
+        reason = [next((r for r in result.reason[i * k:(i + 1) * k] if r), "")
+                  for i in range(len(X))]
+        if self.constraint_mode == "realised":  # the worst of the K runs
+            g = self._normalised(phys_obj.eq20_realised(result))
+            g = g.reshape(len(X), k, -1).max(axis=1)
+        else:
+            g = self.reference_constraints(X)
+        return F, g, reason
+
+    def _predicted_chunk(self, X: np.ndarray):
+        """``information``: expected objectives of the noise-free realised run."""
+        result = self._noise_free(X)
+        sigma_e = information.equation_noise_sigma(self.config)
+        cols = []
+        for tm in self.objective_tms:
+            pred = information.predict(result, sigma_e, idx=tm - 1, eps=self.epsilon,
+                                       weights=self.m_weights)
+            cols += [pred["convergence_time"], pred["convergence_accuracy"]]
         reason = [r if d else "" for r, d in zip(result.reason, result.diverged)]
         if self.constraint_mode == "realised":
             g = self._normalised(phys_obj.eq20_realised(result))
         else:
             g = self.reference_constraints(X)
         return np.stack(cols, axis=1), g, reason
+
+    def _noise_free(self, X: np.ndarray) -> SimulationResult:
+        ref1, ref2 = self.references(X)
+        cfg = replace(information.noise_free(self.config), record="full")
+        return simulate(ref1, ref2, cfg, seed=0)
 
     def constraints(self, X: np.ndarray) -> np.ndarray:
         """The problem's Eq. 20 values of designs ``X`` (n, n_constr), ``<= 0`` feasible:
@@ -258,36 +347,92 @@ class StiffnessProblem(ExpensiveProblem):
         return norm[:, cols]
 
     # ---- reporting ---------------------------------------------------------------------
-    def identification_report(self, x: np.ndarray) -> dict:
-        """Table 3 numbers of one design: times, accuracies, M at several thresholds."""
-        result = self.simulate_designs(np.atleast_2d(x))
-        report = {"diverged": bool(result.diverged[0]), "reason": result.reason[0] or None}
-        for tm in (1, 2):
-            report[f"max_abs_x_TM{tm}"] = float(result.max_abs_position[0, tm - 1])
-            report[f"max_abs_force_TM{tm}"] = float(result.max_abs_command[0, tm - 1])
-            report[f"max_tracking_error_TM{tm}"] = float(result.max_tracking_error[0, tm - 1])
+    def identification_report(self, x: np.ndarray, seeds=None) -> dict:
+        """Table 3 numbers of one design as the search scored it: times, accuracies, M at
+        several thresholds, final accuracy.
+
+        ``seeds``: the realisations that scored it (an archive row's ``noise_seeds``;
+        default: the ``fixed``/``average`` seeds) -- the mean over them, as the
+        objectives were; ``information``: the predicted (expected) numbers.
+        """
+        x = np.atleast_2d(x)
+        if self.noise == "information":
+            return self._predicted_report(x)
+        if seeds is None:
+            seeds = self.noise_seeds(1)[0] if self.noise != "fresh" else [self.noise_seed]
+        seeds = np.asarray([s for s in np.ravel(seeds) if s >= 0], dtype=np.int64)
+        result = self.simulate_designs(np.repeat(x, len(seeds), axis=0), seed=seeds)
+        report = {"diverged": bool(result.diverged.any()),
+                  "reason": next((r for r in result.reason if r), None)}
+        report.update(self._motion_report(result))
         w1, w2 = self.m_weights
         for tm in self.objective_tms:
             idx = tm - 1
             truth = float(self.config.theta_true[idx])
-            curve = result.theta_hat[0, :, idx]
+            curves = result.theta_hat[:, :, idx]
             tag = f"TM{tm}"
-            report[f"final_accuracy_{tag}"] = float(abs(curve[-1] - truth))
+            report[f"final_accuracy_{tag}"] = float(np.mean(np.abs(curves[:, -1] - truth)))
             for eps in (self.epsilon, *STRICT_THRESHOLDS):
-                m = metric_m_at_threshold(curve, truth, eps, self.config.sample_rate, w1, w2)
+                m = metric_m_at_threshold(curves, truth, eps, self.config.sample_rate, w1, w2)
                 suffix = "" if eps == self.epsilon else f"@{eps:g}"
-                report[f"convergence_time_{tag}{suffix}"] = m["convergence_time"]
-                report[f"convergence_accuracy_{tag}{suffix}"] = m["convergence_accuracy"]
-                report[f"M_{tag}{suffix}"] = m["M"]
+                report[f"convergence_time_{tag}{suffix}"] = float(m["convergence_time"].mean())
+                report[f"convergence_accuracy_{tag}{suffix}"] = \
+                    float(m["convergence_accuracy"].mean())
+                report[f"M_{tag}{suffix}"] = float(m["M"].mean())
         return report
 
+    @staticmethod
+    def _motion_report(result: SimulationResult) -> dict:
+        report = {}
+        for tm in (1, 2):
+            report[f"max_abs_x_TM{tm}"] = float(result.max_abs_position[:, tm - 1].max())
+            report[f"max_abs_force_TM{tm}"] = float(result.max_abs_command[:, tm - 1].max())
+            report[f"max_tracking_error_TM{tm}"] = \
+                float(result.max_tracking_error[:, tm - 1].max())
+        return report
+
+    def _predicted_report(self, x: np.ndarray) -> dict:
+        result = self._noise_free(x)
+        sigma_e = information.equation_noise_sigma(self.config)
+        report = {"diverged": bool(result.diverged[0]), "reason": result.reason[0] or None}
+        report.update(self._motion_report(result))
+        for tm in self.objective_tms:
+            tag = f"TM{tm}"
+            for eps in (self.epsilon, *STRICT_THRESHOLDS):
+                pred = information.predict(result, sigma_e, idx=tm - 1, eps=eps,
+                                           weights=self.m_weights)
+                suffix = "" if eps == self.epsilon else f"@{eps:g}"
+                for q in ("convergence_time", "convergence_accuracy", "M"):
+                    report[f"{q}_{tag}{suffix}" if q != "M" else f"M_{tag}{suffix}"] = \
+                        float(pred[q][0])
+                if eps == self.epsilon:
+                    report[f"final_accuracy_{tag}"] = float(pred["final_accuracy"][0])
+        return report
+
+    def heldout_report(self, X: np.ndarray, n_seeds: int | None = None) -> dict:
+        """Every design of ``X`` on the first ``n_seeds`` held-out seeds (default
+        ``heldout_seeds``): arrays (n, S) per quantity (:func:`tmopt.problems.heldout.scores`)."""
+        seeds = heldout_seeds(self.n_heldout if n_seeds is None else n_seeds)
+        return {"seeds": seeds, **heldout.scores(self, X, seeds)}
+
     def extra_metrics(self, problem, data, pareto, best: int) -> dict:
-        """Runner hook: the chosen design's Table 3 numbers (re-simulated, not counted)."""
+        """Runner hook: the chosen design's Table 3 numbers as the search scored it
+        (re-simulated, not counted), its and the final front's held-out scores, and the
+        physical floor with every reported number below it flagged."""
         if best < 0:
             return {}
-        return {"identification": self.identification_report(data.X[best]),
-                "scheme": self.scheme, "n_freq": self.n_freq,
-                "variable_names": self.variable_names()}
+        used = getattr(data, "noise_seeds", None)
+        row_seeds = used[best] if used is not None and len(used) else None
+        ident = self.identification_report(data.X[best], seeds=row_seeds)
+        out = {"identification": ident, "scheme": self.scheme, "n_freq": self.n_freq,
+               "variable_names": self.variable_names(), "noise": self.noise}
+        block = None
+        if self.n_heldout:
+            out.update(heldout.heldout_metrics(self, data.X, best, np.asarray(pareto, int),
+                                               used_seeds=used))  # fmt: skip
+            block = out["heldout"]
+        out["floor"] = heldout.floor_block(self, block, ident)
+        return out
 
 
 def _check_int(problem: str, label: str, value, lo: int, hi: int) -> None:

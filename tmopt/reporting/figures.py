@@ -61,8 +61,9 @@ def fig8(rows: list[dict], path: Path) -> None:
             ax.text(0.5, 0.5, f"no runs of scheme {scheme}", ha="center",
                     transform=ax.transAxes)
         for i, (name, series) in enumerate(series_of_scheme.items()):
-            _errorbar(ax, series, "convergence_time_TM1", color=f"C{i}", label=f"{name}: time")
-            _errorbar(ax2, series, "convergence_accuracy_TM1", color=f"C{i}", ls="--",
+            _errorbar(ax, series, "heldout_convergence_time", color=f"C{i}",
+                      label=f"{name}: time")
+            _errorbar(ax2, series, "heldout_convergence_accuracy", color=f"C{i}", ls="--",
                       marker="s", mfc="white", label=f"{name}: accuracy")
         ax.set_title(f"({'abc'[SCHEMES.index(scheme)]}) Scheme {scheme}")
         ax.set_xlabel("number of frequencies k")
@@ -71,8 +72,9 @@ def fig8(rows: list[dict], path: Path) -> None:
         ax2.set_ylabel("convergence accuracy TM1 (s$^{-2}$), dashed")
         _log_if_positive(ax2)
         _merged_legend(ax, ax2)
-    fig.suptitle("Fig. 8: chosen design (Eq. 21) per configuration, mean ± std over seeds "
-                 "(x: the chosen design of some run is infeasible)")
+    fig.suptitle("Fig. 8: chosen design (Eq. 21) per configuration on held-out noise seeds, "
+                 "mean ± std over runs (x: the chosen design of some run is infeasible)",
+                 fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -84,13 +86,18 @@ def fig9(rows: list[dict], path: Path) -> None:
     i = 0
     for scheme in SCHEMES:
         for name, series in _series(rows, scheme).items():
-            _errorbar(ax, series, "M_TM1", color=f"C{i}", label=f"scheme {scheme}: {name}")
+            _errorbar(ax, series, "heldout_M", color=f"C{i}",
+                      label=f"scheme {scheme}: {name}, held-out")
+            k = [int(r["setting"]["problem.n_freq"]) for r in series]
+            ax.plot(k, [r["M_TM1"][0] for r in series], color=f"C{i}", ls=":", marker=".",
+                    label=f"scheme {scheme}: {name}, search draw")
             i += 1
     ax.set_xlabel("number of frequencies k")
     ax.xaxis.get_major_locator().set_params(integer=True)
     ax.set_ylabel("M of TM1 (Eq. 29, lower is better)")
-    ax.set_title("Fig. 9: M per configuration, mean ± std over seeds\n"
-                 "(x: the chosen design of some run is infeasible)", fontsize=10)
+    ax.set_title("Fig. 9: M per configuration on held-out noise seeds, mean ± std over runs;\n"
+                 "dotted: the search draw (x: the chosen design of some run is infeasible)",
+                 fontsize=10)
     if i:
         ax.legend(fontsize=8)
     fig.tight_layout()
@@ -113,7 +120,8 @@ def _merged_legend(ax, ax2) -> None:
 
 # ---- Fig. 10 ------------------------------------------------------------------------
 def fig10(run: RunRecord, png: Path, csv_path: Path, why: str) -> str:
-    """Re-simulate the run's chosen design; plot TM1/TM2 motion and the k1xx curve.
+    """Re-simulate the run's chosen design; plot TM1/TM2 motion and the k1xx curves on
+    the run's held-out noise seeds (their spread; the search-draw curve dashed).
 
     Returns the caption (also written under the figure).
     """
@@ -122,12 +130,52 @@ def fig10(run: RunRecord, png: Path, csv_path: Path, why: str) -> str:
     node = run.config["problem"]  # resolved config.yaml: constructor arguments + _target_
     problem = StiffnessProblem(**{k: v for k, v in node.items() if not k.startswith("_")})
     x = np.asarray(run.metrics["chosen"]["X"], dtype=float)
-    res = problem.simulate_designs(x[None, :], record="full")
-    check = problem.identification_report(x)
+    row = (run.metrics.get("chosen") or {}).get("index")
+    seeds = _row_seeds(run, row)
+    res = problem.simulate_designs(x[None, :], record="full",
+                                   seed=seeds[0] if len(seeds) else problem.noise_seed)
+    check = problem.identification_report(x, seeds=seeds if len(seeds) else None)
+    held = run.metrics.get("heldout") or {}
+    n_held = int(held.get("n_seeds") or problem.n_heldout)
+    curves = problem.heldout_report(x[None, :], n_held) if n_held else None
+    spread = None
+    if curves is not None:
+        ref1, ref2 = problem.references(x[None, :])
+        from tmopt.physics.simulator import simulate
+
+        rep = simulate(ref1.take(np.zeros(n_held, int)), ref2.take(np.zeros(n_held, int)),
+                       problem.config, seed=curves["seeds"])
+        spread = rep.theta_hat[:, :, 0]
     d = res.design(0)
-    _fig10_plot(d, res.config.theta_true[0], png, f"Fig. 10: {why} (re-simulated)")
-    _fig10_csv(d, csv_path)
-    return _fig10_caption(run, check, why) + " " + _tracking_text(d)
+    from tmopt.physics.floor import stiffness_floor
+
+    floor_sd = np.sqrt(stiffness_floor(problem.config, 0, problem.constraint_mode).variance())
+    _fig10_plot(d, res.config.theta_true[0], png, f"Fig. 10: {why} (re-simulated)", spread,
+                floor_sd)
+    _fig10_csv(d, csv_path, spread)
+    text = _fig10_caption(run, check, why) + " " + _tracking_text(d)
+    if curves is not None:
+        m = curves["M_TM1"][0]
+        text += (f" On {n_held} held-out noise seeds: M = {m.mean():.3g} ± {m.std(ddof=1):.2g}"
+                 f" (median {np.median(m):.3g}, range {m.min():.3g}-{m.max():.3g}), "
+                 f"convergence time {curves['convergence_time_TM1'][0].mean():.1f} ± "
+                 f"{curves['convergence_time_TM1'][0].std(ddof=1):.1f} s, final accuracy "
+                 f"{curves['final_accuracy_TM1'][0].mean():.3g} s^-2 (mean |error|); panel "
+                 "(c) shows every held-out curve (grey), their 10-90 % band and median.")
+    return text
+
+
+def _row_seeds(run: RunRecord, row) -> np.ndarray:
+    """The noise seeds that scored archive row ``row`` of the run (empty when unknown)."""
+    if row is None:
+        return np.zeros(0, np.int64)
+    try:
+        from tmopt.evaluation.archive import read_archive
+
+        seeds = read_archive(run.path / "archive.h5").noise_seeds[int(row)]
+    except Exception:  # noqa: BLE001 - no archive: the problem's own seeds are used
+        return np.zeros(0, np.int64)
+    return seeds[seeds >= 0]
 
 
 #: Times after which tracking is judged: the paper's "effective control within 3 min"
@@ -147,34 +195,64 @@ def _tracking_text(d: dict) -> str:
     return "; ".join(parts) + "."
 
 
-def _fig10_plot(d: dict, truth: float, path: Path, title: str) -> None:
-    fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True)
+def _fig10_plot(d: dict, truth: float, path: Path, title: str,
+                spread: np.ndarray | None = None, floor_sd: np.ndarray | None = None) -> None:
+    """(a, b) the motions; (c) the k1xx curves; (d) with held-out curves: their rms error
+    against time beside the physical floor's (``floor_sd``)."""
+    import textwrap
+
+    rows = 4 if spread is not None else 3
+    fig, axes = plt.subplots(rows, 1, figsize=(8, 2.9 * rows + 0.4), sharex=True)
     for ax, k in zip(axes[:2], ("1", "2")):
         ax.plot(d["time"], d[f"ref_x{k}"], "k--", lw=1, label="reference")
         ax.plot(d["time"], d[f"x{k}_true"], "C0", lw=0.8, label=f"x{k} (controlled)")
         ax.set_ylabel(f"TM{k} sensitive axis x [m]")
         ax.legend(loc="upper right")
         ax.set_title(f"({'ab'[int(k) - 1]}) TM{k}: reference and controlled displacement")
-    axes[2].plot(d["time"], d["theta_hat"][:, 0], "C0", lw=0.8, label="k1xx estimate (RLS)")
-    axes[2].axhline(truth, color="k", ls="--", lw=1, label="truth")
-    axes[2].set_ylim(truth - 0.5 * abs(truth), truth + 0.5 * abs(truth))
-    axes[2].set_ylabel("k1xx [s$^{-2}$]")
-    axes[2].set_xlabel("time [s]")
-    axes[2].set_title("(c) identification curve of TM1")
-    axes[2].legend(loc="upper right")
-    fig.suptitle(title, fontsize=9)
+    ax = axes[2]
+    if spread is not None:
+        for curve in spread:
+            ax.plot(d["time"], curve, color="0.75", lw=0.4)
+        lo, mid, hi = np.percentile(spread, [10, 50, 90], axis=0)
+        ax.fill_between(d["time"], lo, hi, color="C1", alpha=0.35,
+                        label=f"10-90 % over {len(spread)} held-out seeds")
+        ax.plot(d["time"], mid, "C1", lw=1.0, label="held-out median")
+        ax.plot(d["time"], d["theta_hat"][:, 0], "C0--", lw=0.8, label="search draw (RLS)")
+    else:
+        ax.plot(d["time"], d["theta_hat"][:, 0], "C0", lw=0.8, label="k1xx estimate (RLS)")
+    ax.axhline(truth, color="k", ls="--", lw=1, label="truth")
+    ax.set_ylim(truth - 0.2 * abs(truth), truth + 0.2 * abs(truth))
+    ax.set_ylabel("k1xx [s$^{-2}$]")
+    ax.set_title("(c) identification curve of TM1")
+    ax.legend(loc="upper right", fontsize=8)
+    if spread is not None:
+        ax = axes[3]
+        rms = np.sqrt(np.mean((spread - truth) ** 2, axis=0))
+        ax.semilogy(d["time"], rms, "C1", lw=1.0, label="rms error over the held-out seeds")
+        if floor_sd is not None:
+            ax.semilogy(d["time"], floor_sd, "k", lw=1.0,
+                        label="physical floor (rms, any admissible motion)")
+        ax.set_ylim(max(1e-12, 0.3 * np.min(rms[len(rms) // 10:])), 10 * abs(truth))
+        ax.set_ylabel("|k1xx error| rms [s$^{-2}$]")
+        ax.set_title("(d) held-out error against the floor (docs/noise.md)")
+        ax.legend(loc="upper right", fontsize=8)
+    axes[-1].set_xlabel("time [s]")
+    fig.suptitle("\n".join(textwrap.wrap(title, 95)), fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
 
 
-def _fig10_csv(d: dict, path: Path) -> None:
+def _fig10_csv(d: dict, path: Path, spread: np.ndarray | None = None) -> None:
     """The time series at 1 Hz (every 10th sample at 10 Hz), enough to redraw the figure."""
     from tmopt.files import atomic_write_text
 
     step = max(1, int(round(1.0 / max(np.diff(d["time"][:2]).item(), 1e-9))))
     cols = {"time_s": d["time"], "ref_x1_m": d["ref_x1"], "x1_m": d["x1_true"],
             "ref_x2_m": d["ref_x2"], "x2_m": d["x2_true"], "k1xx_hat": d["theta_hat"][:, 0]}
+    if spread is not None:
+        for q, v in zip(("p10", "p50", "p90"), np.percentile(spread, [10, 50, 90], axis=0)):
+            cols[f"k1xx_heldout_{q}"] = v
     lines = [",".join(cols)]
     for i in range(0, len(d["time"]), step):
         lines.append(",".join(repr(float(v[i])) for v in cols.values()))

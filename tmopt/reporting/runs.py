@@ -26,7 +26,7 @@ from pathlib import Path
 from omegaconf import OmegaConf
 
 COMPLETE, FAILED, INCOMPLETE = "complete", "failed", "incomplete"
-#: Config groups of conf/ (their effective value is Hydra's recorded choice).
+#: Config groups of tmopt/conf/ (their effective value is Hydra's recorded choice).
 GROUP_KEYS = ("problem", "algorithm", "surrogate", "scheme", "experiment")
 #: Keys that never define a setting (how a run is shown or stored, or which launcher).
 IGNORED_KEYS = ("seed", "name", "resume", "progress", "plots")

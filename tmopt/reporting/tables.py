@@ -38,6 +38,9 @@ class Metric:
         tested: Whether the rank-sum test against the reference is computed (CSV).
         sci: Scientific notation (None: decide by magnitude).
         show_p: Whether the Markdown table shows that p-value too (tables stay readable).
+        floor_flag: Name of the run's ``floor.below_floor`` entry for this value: the
+            Markdown cell then says in how many runs it was below the physical floor
+            (``‡k``: noise luck, not excitation quality; docs/noise.md).
     """
 
     key: str
@@ -47,6 +50,7 @@ class Metric:
     tested: bool = False
     sci: bool | None = None
     show_p: bool = True
+    floor_flag: str | None = None
 
 
 def _ident(key: str) -> Callable[[RunRecord], float | None]:
@@ -65,20 +69,71 @@ def _has_front(run: RunRecord) -> float:
     return float(((run.metrics or {}).get("pareto_size") or 0) > 0)
 
 
+def _heldout(quantity: str, stat: str = "mean") -> Callable[[RunRecord], float | None]:
+    """The chosen design's held-out statistic (metrics.json ``heldout``)."""
+    def get(run: RunRecord) -> float | None:
+        block = (run.metrics or {}).get("heldout") or {}
+        if quantity == "eq20_share":
+            return block.get("eq20_share")
+        return (block.get(quantity) or {}).get(stat)
+    return get
+
+
+def _front_best(run: RunRecord) -> float | None:
+    best = ((run.metrics or {}).get("heldout_front") or {}).get("best_M") or {}
+    return best.get("M_mean")
+
+
+#: The search draw: what the optimiser saw for its chosen design (one noise draw under
+#: ``fixed``, the mean of K under ``average``, a prediction under ``information``).
+_SEARCH_FLAGS = {"convergence_accuracy_TM1": "identification.convergence_accuracy_TM1",
+                 "M_TM1": "identification.M_TM1",
+                 "final_accuracy_TM1": "identification.final_accuracy_TM1"}
 TABLE3_METRICS: tuple[Metric, ...] = tuple(
-    Metric(key, header, _ident(key), tested=True, show_p=key == "M_TM1",
-           sci=None if "time" in key or key.startswith("M_") else True)
+    Metric(key, f"{header} search draw", _ident(key), tested=True, show_p=False,
+           sci=None if "time" in key or key.startswith("M_") else True,
+           floor_flag=_SEARCH_FLAGS.get(key))
     for key, header in TABLE3_COLUMNS)
+#: Held-out re-scoring of the chosen design (mean over the run's held-out seeds): the
+#: headline of Table 3 and Figs. 8-9; the Wilcoxon test is on held-out M.
+HELDOUT_METRICS: tuple[Metric, ...] = (
+    Metric("heldout_M", "M held-out", _heldout("M"), tested=True,
+           floor_flag="heldout.M.mean"),
+    Metric("M_TM1", "M search draw", _ident("M_TM1"), tested=True, show_p=False,
+           floor_flag="identification.M_TM1"),
+    Metric("heldout_M_std", "noise spread of M (std over held-out seeds)",
+           _heldout("M", "std")),
+    Metric("heldout_convergence_time", "convergence time held-out (s)",
+           _heldout("convergence_time"), tested=True, show_p=False),
+    Metric("heldout_convergence_accuracy", "convergence accuracy held-out (s^-2)",
+           _heldout("convergence_accuracy"), tested=True, show_p=False, sci=True,
+           floor_flag="heldout.convergence_accuracy.mean"),
+    Metric("heldout_M(7e-11)", "M (7e-11) held-out", _heldout("M(7e-11)"), tested=True,
+           show_p=False),
+    Metric("heldout_M(5e-11)", "M (5e-11) held-out", _heldout("M(5e-11)"), tested=True,
+           show_p=False),
+    Metric("heldout_final_accuracy", "final accuracy held-out (s^-2)",
+           _heldout("final_accuracy"), tested=True, show_p=False, sci=True,
+           floor_flag="heldout.final_accuracy.mean"),
+    Metric("heldout_eq20", "held-out runs keeping Eq. 20", _heldout("eq20_share"),
+           lower_is_better=False, sci=False),
+    Metric("front_best_M", "best held-out M on the front", _front_best, tested=True,
+           show_p=False),
+)
 COMMON_METRICS: tuple[Metric, ...] = (
     Metric("n_evals", "real evaluations", _metric("n_evals"), sci=False),
     Metric("wall_time_s", "wall time per run (s)", _metric("wall_time_s"), sci=False),
 )
 STIFFNESS_METRICS = (
     Metric("chosen_feasible", "chosen feasible", _chosen_feasible),
+    *HELDOUT_METRICS, *COMMON_METRICS)
+#: Table 3's columns on the search draw (with the floor flags), table3_search_draw.md.
+SEARCH_DRAW_METRICS = (
+    Metric("chosen_feasible", "chosen feasible", _chosen_feasible),
     *TABLE3_METRICS, *COMMON_METRICS)
 #: What an archive prefix gives (tmopt.reporting.anytime): no re-simulation, so no
 #: stricter thresholds or final accuracy.
-ANYTIME_STIFFNESS_METRICS = tuple(m for m in STIFFNESS_METRICS if m.key in (
+ANYTIME_STIFFNESS_METRICS = tuple(m for m in SEARCH_DRAW_METRICS if m.key in (
     "chosen_feasible", "convergence_time_TM1", "convergence_accuracy_TM1", "M_TM1"))
 BENCHMARK_METRICS: tuple[Metric, ...] = (
     Metric("has_front", "feasible set found", _has_front),
@@ -105,7 +160,10 @@ def summarise(groups: dict[Setting, list[RunRecord]], metrics: Sequence[Metric],
         ref = _reference_setting(setting, reference, groups)
         row: dict = {"setting": dict(setting), "n_complete": len(_complete(runs)),
                      "n_runs": len(runs), "reference": dict(ref) if ref else None,
-                     "values": values[setting]}
+                     "values": values[setting],
+                     "below_floor": {m.key: sum(_below_floor(r, m.floor_flag)
+                                                for r in _complete(runs))
+                                     for m in metrics if m.floor_flag}}  # fmt: skip
         for m in metrics:
             row[m.key] = mean_std(values[setting][m.key])
             if m.tested:
@@ -121,6 +179,25 @@ def _add_test(row: dict, m: Metric, ours: list, theirs: list | None) -> None:
     p = math.nan if theirs is None else rank_sum(ours, theirs)
     row[f"p_{m.key}"] = p
     row[f"mark_{m.key}"] = "" if theirs is None else mark(ours, theirs, p, m.lower_is_better)
+
+
+def _below_floor(run: RunRecord, flag: str) -> bool:
+    floor = (run.metrics or {}).get("floor") or {}
+    return flag in (floor.get("below_floor") or [])
+
+
+def floor_note(runs: list[RunRecord]) -> str:
+    """One sentence: the physical floor of the runs' problem (the first run that has one)."""
+    for run in runs:
+        fl = (run.metrics or {}).get("floor")
+        if fl:
+            return (f"Physical floor ({fl.get('parameter', 'k1xx')}, docs/noise.md): final "
+                    f"accuracy >= {fmt_number(fl['final_accuracy_mean'], True)} s^-2 (mean "
+                    f"|error|; rms {fmt_number(fl['final_accuracy_rms'], True)}), M >= "
+                    f"{fmt_number(fl['M'])} (at a convergence time of "
+                    f"{fl['M_at_convergence_time']:.0f} s); ‡k: k runs below their floor, "
+                    "which only noise luck gives.")
+    return ""
 
 
 def _complete(runs: list[RunRecord]) -> list[RunRecord]:
@@ -206,7 +283,8 @@ def _cell(row: dict, m: Metric) -> str:
     if m.key in ("chosen_feasible", "has_front"):
         vals = row["values"][m.key]
         return f"{int(sum(vals))}/{len(vals)}"
-    return fmt_mean_std(row["values"][m.key], m.sci)
+    below = (row.get("below_floor") or {}).get(m.key, 0)
+    return fmt_mean_std(row["values"][m.key], m.sci) + (f" ‡{below}" if below else "")
 
 
 def csv_rows(rows: list[dict], metrics: Sequence[Metric], keys: Sequence[str]) -> list[dict]:
@@ -218,6 +296,8 @@ def csv_rows(rows: list[dict], metrics: Sequence[Metric], keys: Sequence[str]) -
         for m in metrics:
             mean, std, n = row[m.key]
             flat.update({f"{m.key}_mean": mean, f"{m.key}_std": std, f"{m.key}_n": n})
+            if m.floor_flag:
+                flat[f"{m.key}_below_floor"] = row["below_floor"][m.key]
             if f"p_{m.key}" in row:
                 flat[f"p_{m.key}"] = row[f"p_{m.key}"]
                 flat[f"mark_{m.key}"] = row[f"mark_{m.key}"]
@@ -225,14 +305,32 @@ def csv_rows(rows: list[dict], metrics: Sequence[Metric], keys: Sequence[str]) -
     return out
 
 
-def paper_comparison(rows: list[dict]) -> tuple[list[str], list[list[str]]]:
-    """Our Table 3 means beside the paper's single values, one line per source."""
+#: Held-out counterparts of Table 3's columns (metrics of HELDOUT_METRICS).
+_HELDOUT_OF = {"convergence_time_TM1": "heldout_convergence_time",
+               "convergence_accuracy_TM1": "heldout_convergence_accuracy",
+               "M_TM1": "heldout_M", "M_TM1@7e-11": "heldout_M(7e-11)",
+               "M_TM1@5e-11": "heldout_M(5e-11)",
+               "final_accuracy_TM1": "heldout_final_accuracy"}
+
+
+def paper_comparison(rows: list[dict], heldout: list[dict] | None = None
+                     ) -> tuple[list[str], list[list[str]]]:  # fmt: skip
+    """Our Table 3 means beside the paper's single values, one line per source: the
+    search draw (``rows``, SEARCH_DRAW_METRICS) and, when given, the held-out scores
+    (``heldout``, the same settings summarised with STIFFNESS_METRICS)."""
     header = ["algorithm", "source", *(h for _, h in TABLE3_COLUMNS)]
     body = []
     for i, row in enumerate(rows):
         algo = row["setting"].get("algorithm", "")
         ours = [fmt_number(row[k][0], _sci(k)) for k, _ in TABLE3_COLUMNS]
-        body.append([label(row["setting"]), f"ours (mean of {row['n_complete']})", *ours])
+        body.append([label(row["setting"]), f"ours, search draw (mean of "
+                     f"{row['n_complete']})", *ours])
+        held = next((h for h in heldout or [] if h["setting"] == row["setting"]), None)
+        if held is not None:
+            body.append([label(row["setting"]), f"ours, held-out (mean of "
+                         f"{held['n_complete']})", *(fmt_number(held[_HELDOUT_OF[k]][0],
+                                                                _sci(k))
+                                                     for k, _ in TABLE3_COLUMNS)])
         last_of_algo = i + 1 == len(rows) or rows[i + 1]["setting"].get("algorithm") != algo
         if algo in PAPER_TABLE3 and last_of_algo:
             paper = [fmt_number(v, _sci(k)) for (k, _), v in zip(TABLE3_COLUMNS,

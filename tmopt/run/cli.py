@@ -13,10 +13,15 @@ import json
 import logging
 import os
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 import hydra
-from hydra import compose, initialize_config_dir
+from hydra import compose
+from hydra import version as hydra_version
+from hydra._internal.hydra import Hydra
+from hydra._internal.utils import create_automatic_config_search_path, get_args_parser
+from hydra.core.config_search_path import SearchPathQuery
 from hydra.core.global_hydra import GlobalHydra
 from hydra.core.hydra_config import HydraConfig
 from hydra.core.override_parser.overrides_parser import OverridesParser
@@ -26,12 +31,17 @@ from omegaconf import DictConfig, OmegaConf
 from tmopt.evaluation.archive import ArchiveError
 from tmopt.files import atomic_write_text
 from tmopt.run.build import build
-from tmopt.run.config import GROUPS, ConfigError, config_hash, register_configs
+from tmopt.run.config import GROUPS, ConfigError, config_hash, did_you_mean, register_configs
 from tmopt.run.run_lock import RunFolderBusy, hold_run_lock
 
 log = logging.getLogger("tmopt")
 
-CONF_DIR = Path(__file__).resolve().parents[2] / "conf"
+#: tmopt's own configuration ships inside the package; Hydra reads it through its pkg://
+#: source, so an installed tmopt (a wheel, not a clone) has every option. CONF_DIR is the
+#: same folder on disk (to find the classes the option files start from).
+CONF_PACKAGE = "tmopt.conf"
+CONF_SOURCE = f"pkg://{CONF_PACKAGE}"
+CONF_DIR = Path(__file__).resolve().parents[1] / "conf"
 #: Flags after which Hydra prints information instead of running: no pre-flight needed.
 INFO_FLAGS = {"--help", "-h", "--hydra-help", "--info", "-i", "--cfg", "-c",
               "--shell-completion", "-sc", "--version", "--resolve", "-p", "--package"}
@@ -40,16 +50,68 @@ MULTIRUN_FLAGS = {"-m", "--multirun"}
 register_configs(CONF_DIR)
 
 
+# ---- where the configuration comes from ----------------------------------------------------
+@dataclass(frozen=True)
+class ConfigSources:
+    """Where Hydra finds the configuration: tmopt's package (or ``--config-path``), the
+    primary config's name (``--config-name``) and a user's folder of extra options searched
+    first (``--config-dir``), exactly as Hydra's own command line sets them."""
+
+    config_path: str = CONF_SOURCE
+    config_name: str = "config"
+    config_dir: str | None = None
+
+    def search_path(self):
+        """Hydra's search path for these sources (what ``@hydra.main`` builds from them)."""
+        path = create_automatic_config_search_path(None, __name__, self.config_path)
+        if self.config_dir is not None:
+            path.prepend(provider="command-line", path=f"file://{self.config_dir}",
+                         anchor=SearchPathQuery(provider="schema"))
+        return path
+
+    def folders(self) -> list[Path]:
+        """The folders on disk whose option files may start from a constructor."""
+        found = [CONF_DIR]
+        for extra in (self.config_dir, self.config_path):
+            if extra and not extra.startswith("pkg://") and Path(extra).is_dir():
+                found.append(Path(extra))
+        return found
+
+
+def config_sources(args: list[str]) -> ConfigSources:
+    """The :class:`ConfigSources` of a command line (Hydra's own argument parser reads it).
+
+    A ``--config-dir`` that is not a folder is a one-line :class:`ConfigError`."""
+    known, _ = get_args_parser().parse_known_args(args)
+    config_dir = None
+    if known.config_dir is not None:
+        config_dir = os.path.abspath(known.config_dir)
+        if not os.path.isdir(config_dir):
+            raise ConfigError(f"--config-dir {known.config_dir}: no such folder")
+    return ConfigSources(config_path=known.config_path or CONF_SOURCE,
+                         config_name=known.config_name or "config", config_dir=config_dir)
+
+
 # ---- pre-flight -------------------------------------------------------------------------
 def available(group: str) -> list[str]:
-    """Option names of a config group (``conf/<group>/*.yaml``)."""
-    folder = CONF_DIR / group
-    return sorted(p.stem for p in folder.glob("*.yaml")) if folder.is_dir() else []
+    """Option names of a config group in every source Hydra searches (tmopt's own options
+    and, with ``--config-dir``, the user's)."""
+    if GlobalHydra.instance().is_initialized():
+        return _options(group)
+    with _hydra_context():
+        return _options(group)
+
+
+def _options(group: str) -> list[str]:
+    loader = GlobalHydra.instance().config_loader()
+    return sorted(set(loader.get_group_options(group)))
 
 
 def preflight(args: list[str]) -> int:
     """Validate every configuration a command line denotes; return how many were checked."""
-    overrides = [a for a in args if not a.startswith("-")]
+    sources = config_sources(args)
+    register_configs(*sources.folders())
+    overrides = get_args_parser().parse_known_args(args)[0].overrides
     try:
         parsed = OverridesParser.create().parse_overrides(overrides)
     except Exception as exc:  # noqa: BLE001 - Hydra's grammar errors are multi-line
@@ -59,13 +121,14 @@ def preflight(args: list[str]) -> int:
         key = ov.get_key_element()
         vals = list(ov.sweep_string_iterator()) if ov.is_sweep_override() \
             else [ov.get_value_element_as_str()]
-        _check_group_values(key, vals)
-        values[ov.input_line] = [_as_override(ov, v) for v in vals]
-    combos = _combinations(list(values.values()))
+        values[ov.input_line] = (key, vals, [_as_override(ov, v) for v in vals])
+    combos = _combinations([v[2] for v in values.values()])
     multirun = bool(MULTIRUN_FLAGS.intersection(args))
-    with _hydra_context():
+    with _hydra_context(sources):
+        for key, vals, _ in values.values():
+            _check_group_values(key, vals)
         for combo in combos:
-            _check_one(combo, multirun)
+            _check_one(combo, multirun, sources.config_name)
     return len(combos)
 
 
@@ -74,7 +137,7 @@ def _as_override(ov, value: str) -> str:
 
 
 def option_config(group: str, option: str) -> DictConfig:
-    """The node of ``conf/<group>/<option>.yaml`` as Hydra composes it (constructor
+    """The node of ``tmopt/conf/<group>/<option>.yaml`` as Hydra composes it (constructor
     defaults, then the file), e.g. to build one algorithm outside a run."""
     with _hydra_context():
         cfg = compose(config_name="config", overrides=[f"{group}={option}"])
@@ -88,7 +151,8 @@ def _check_group_values(key: str, vals: list[str]) -> None:
     options = available(group)
     for v in vals:
         if v not in options and v != "null":
-            raise ConfigError(f"unknown {group} {v!r}; choose one of: {', '.join(options)}")
+            raise ConfigError(f"unknown {group} {v!r};{did_you_mean(v, options)} choose one "
+                              f"of: {', '.join(options)}")
 
 
 def _combinations(value_lists: list[list[str]]) -> list[list[str]]:
@@ -101,9 +165,9 @@ def _combinations(value_lists: list[list[str]]) -> list[list[str]]:
     return combos
 
 
-def _check_one(overrides: list[str], multirun: bool) -> None:
+def _check_one(overrides: list[str], multirun: bool, config_name: str = "config") -> None:
     try:
-        cfg = compose(config_name="config", overrides=overrides, return_hydra_config=True)
+        cfg = compose(config_name=config_name, overrides=overrides, return_hydra_config=True)
         outdir = cfg.hydra.sweep.dir if multirun else cfg.hydra.run.dir
     except Exception as exc:  # noqa: BLE001 - turn Hydra's report into one line
         raise ConfigError(_composition_message(exc, overrides)) from None
@@ -136,16 +200,19 @@ def _first_line(exc: BaseException) -> str:
 
 
 class _hydra_context:
-    """Hydra's compose API, initialised on tmopt's conf/ folder (and cleared afterwards)."""
+    """Hydra's compose API on the search path of ``sources`` (default: tmopt's own
+    configuration), cleared afterwards."""
+
+    def __init__(self, sources: ConfigSources | None = None) -> None:
+        self.sources = sources or ConfigSources()
 
     def __enter__(self):
         GlobalHydra.instance().clear()
-        self._ctx = initialize_config_dir(config_dir=str(CONF_DIR), version_base=None)
-        self._ctx.__enter__()
+        hydra_version.setbase(None)
+        Hydra.create_main_hydra2(task_name="tmopt", config_search_path=self.sources.search_path())
         return self
 
     def __exit__(self, *exc):
-        self._ctx.__exit__(*exc)
         GlobalHydra.instance().clear()
         return False
 
@@ -209,6 +276,7 @@ def summary_table(metrics: dict, outdir: Path | None = None) -> str:
     for key, v in (metrics.get("identification") or {}).items():
         if isinstance(v, float) and key not in prob["objectives"]:  # those are shown above
             rows.append(f"| chosen: {key} | {_fmt(v)} |")
+    rows += _heldout_rows(metrics)
     for key in ("igd", "igd_plus", "hv"):
         if metrics.get(key) is not None:
             rows.append(f"| {key} | {_fmt(metrics[key])} |")
@@ -218,11 +286,35 @@ def summary_table(metrics: dict, outdir: Path | None = None) -> str:
     return "\n".join(rows)
 
 
+def _heldout_rows(metrics: dict) -> list[str]:
+    """The chosen design on held-out noise seeds and the physical floor (stiffness runs)."""
+    rows = []
+    held = metrics.get("heldout")
+    if held:
+        n = held["n_seeds"]
+        for q in ("M", "convergence_time", "convergence_accuracy", "final_accuracy"):
+            st = held[q]
+            rows.append(f"| chosen, held-out ({n} seeds): {q} | {_fmt(st['mean'])} ± "
+                        f"{_fmt(st['std'])} (median {_fmt(st['median'])}) |")
+        rows.append(f"| chosen, held-out runs keeping Eq. 20 | {_fmt(held['eq20_share'])} |")
+    floor = metrics.get("floor")
+    if floor:
+        line = (f"final accuracy >= {_fmt(floor['final_accuracy_mean'])} (mean |error|), "
+                f"M >= {_fmt(floor['M'])}")
+        if "convergence_accuracy_mean" in floor:
+            line += (f", convergence accuracy >= {_fmt(floor['convergence_accuracy_mean'])} "
+                     f"at {_fmt(floor['convergence_time'])} s")
+        rows.append(f"| physical floor ({floor['parameter']}) | {line} |")
+        if floor.get("below_floor"):
+            rows.append(f"| below the floor (noise luck) | {', '.join(floor['below_floor'])} |")
+    return rows
+
+
 def _fmt(v) -> str:
     return "n/a" if v is None else f"{v:.4g}"
 
 
-@hydra.main(version_base=None, config_path=str(CONF_DIR), config_name="config")
+@hydra.main(version_base=None, config_path=CONF_SOURCE, config_name="config")
 def _hydra_main(cfg: DictConfig) -> None:
     run_from_config(cfg)
 
@@ -239,7 +331,7 @@ def force_swept_group_keys(args: list[str]) -> list[str]:
         return args
     try:
         parsed = OverridesParser.create().parse_overrides(
-            [a for a in args if not a.startswith("-")])
+            get_args_parser().parse_known_args(args)[0].overrides)
     except Exception:  # noqa: BLE001 - pre-flight reports grammar errors
         return args
     swept = {ov.get_key_element() for ov in parsed
@@ -253,10 +345,12 @@ def main() -> None:
     """Console entry: pre-flight every configuration, then hand over to Hydra."""
     sys.argv[1:] = force_swept_group_keys(sys.argv[1:])
     args = sys.argv[1:]
-    if not INFO_FLAGS.intersection(args) and not any(a.startswith("--config") for a in args):
-        try:
+    try:
+        if INFO_FLAGS.intersection(args):
+            register_configs(*config_sources(args).folders())
+        else:
             preflight(args)
-        except ConfigError as exc:
-            print(f"tmopt: error: {exc}", file=sys.stderr)
-            sys.exit(2)
+    except ConfigError as exc:
+        print(f"tmopt: error: {exc}", file=sys.stderr)
+        sys.exit(2)
     _hydra_main()

@@ -14,6 +14,7 @@ constructor's own checks name ranges. (Decision recorded in docs/decisions.md.)
 
 from __future__ import annotations
 
+import difflib
 import hashlib
 import importlib
 import inspect
@@ -63,12 +64,21 @@ class ConfigError(ValueError):
     """A configuration value is invalid; the message is one line naming it."""
 
 
+def did_you_mean(word: str, choices: Sequence[str]) -> str:
+    """`` did you mean 'x'?`` for the closest of ``choices`` to a misspelt ``word``
+    (difflib's ratio >= 0.6, case ignored), else ``""``; for one-line errors such as
+    ``f"unknown key {k!r};{did_you_mean(k, keys)} allowed keys: ..."``."""
+    lowered = {str(c).lower(): str(c) for c in choices}
+    close = difflib.get_close_matches(str(word).lower(), list(lowered), n=1)
+    return f" did you mean {lowered[close[0]]!r}?" if close else ""
+
+
 @dataclass
 class RunConfig:
     """Run settings (top level of every configuration).
 
     Attributes:
-        problem, algorithm, surrogate: Group nodes (see ``conf/<group>/``).
+        problem, algorithm, surrogate: Group nodes (see ``tmopt/conf/<group>/``).
         seed: Seeds the algorithm; same config and seed give the same numbers.
         budget: Real (expensive) evaluations allowed.
         resume: Resume an interrupted run found in the output folder (by replay).
@@ -99,14 +109,15 @@ def run_folder_name(override_dirname: str) -> str:
     return re.sub(r"(^|,)[+~]+", r"\1", override_dirname)
 
 
-def register_configs(conf_dir: str | Path | None = None) -> None:
+def register_configs(*conf_dirs: str | Path) -> None:
     """Register the run schema, the folder resolver and, for every ``/constructor/<class>``
-    that an option file under ``conf_dir`` names, that class's constructor node."""
+    that an option file under one of ``conf_dirs`` names (tmopt's own configuration, a
+    user's ``--config-dir``), that class's constructor node."""
     store = ConfigStore.instance()
     store.store(name="run_schema", node=RunConfig)
     if not OmegaConf.has_resolver("tmopt_folder"):
         OmegaConf.register_new_resolver("tmopt_folder", run_folder_name)
-    for target in constructor_targets(conf_dir) if conf_dir is not None else ():
+    for target in constructor_targets(*conf_dirs):
         try:
             node = constructor_node(target)
         except ConfigError:  # reported in one line by check_node if the option is chosen
@@ -117,10 +128,10 @@ def register_configs(conf_dir: str | Path | None = None) -> None:
 _CONSTRUCTOR_ENTRY = re.compile(rf"^/?{CONSTRUCTOR_GROUP}/(?P<target>[\w.]+)(@\w+)?$")
 
 
-def constructor_targets(conf_dir: str | Path) -> list[str]:
-    """Class paths that the option files ``conf_dir/<group>/*.yaml`` start from."""
+def constructor_targets(*conf_dirs: str | Path) -> list[str]:
+    """Class paths that the option files ``<conf_dir>/<group>/*.yaml`` start from."""
     targets = set()
-    for path in sorted(Path(conf_dir).glob("*/*.yaml")):
+    for path in sorted(p for d in conf_dirs for p in Path(d).glob("*/*.yaml")):
         defaults = OmegaConf.load(path).get("defaults") or []
         for entry in defaults:
             found = _CONSTRUCTOR_ENTRY.match(entry) if isinstance(entry, str) else None

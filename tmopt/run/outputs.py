@@ -155,10 +155,11 @@ def _archive_csv(problem, data: ArchiveData, rows=None) -> str:
     w = csv.writer(buf)
     xs = [f"x{i + 1}" for i in range(problem.n_var)]
     w.writerow(["index", "batch", *xs, *problem.objective_names, *problem.constraint_names,
-                "failed", "reason", "seed", "wall_time_s"])
+                "failed", "reason", "seed", "wall_time_s", "noise_seeds"])
     for i in rows:
         w.writerow([i, int(data.batch[i]), *map(repr, data.X[i].tolist()),
                     *map(repr, data.F[i].tolist()), *map(repr, data.G[i].tolist()),
                     int(data.failed[i]), data.reason[i], int(data.seed[i]),
-                    f"{data.wall_time[i]:.6g}"])
+                    f"{data.wall_time[i]:.6g}",
+                    " ".join(str(int(s)) for s in data.noise_seeds[i] if s >= 0)])
     return buf.getvalue()

@@ -18,7 +18,7 @@ started    nothing yet                                           yes
 ========== ==================================================== ============
 
 This happens in tmopt's Hydra sweeper (``hydra/sweeper=tmopt``, the default of
-``conf/config.yaml``; ``hydra_plugins/tmopt_sweeper``), in front of whatever launcher the
+``tmopt/conf/config.yaml``; ``hydra_plugins/tmopt_sweeper``), in front of whatever launcher the
 sweep uses: a SLURM sweep no longer queues a job per finished run. Inside each job the
 runner still skips a finished run (a job of an older sweep may finish meanwhile).
 """

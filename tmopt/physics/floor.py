@@ -1,0 +1,192 @@
+"""The physical floor of stiffness identification: how well *any* admissible motion can do.
+
+Eq. 10 is a linear regression ``y_n = psi_n' theta + e_n`` with white equation noise of
+standard deviation ``sigma_e`` (:func:`tmopt.physics.information.equation_noise_sigma`;
+Table 1 through K of Eq. 11: 1.73e-12 m s^-2 per sample at 10 Hz).  For an unbiased
+estimate of ``k_jj`` after n samples the Cramer-Rao bound (here the least-squares
+covariance, Gaussian noise) is ``sigma_e^2 [I_n^-1]_jj`` with ``I_n = sum psi psi'``;
+leaving the other columns (``k_2xx``, ``R``) out of the model can only shrink it, so
+
+    Var(k_hat_n) >= sigma_e^2 / (K_j^2 sum_{m <= n} x_m^2).
+
+Eq. 20 bounds the motion: ``|x| <= alpha2 D`` and the commanded force ``|u| <=
+alpha1 F_max``; the test mass starts at rest at the centre (Sec. 3.2.1), so with ``|x''|
+<= a = alpha1 F_max + |k| alpha2 D + |f_D|`` (the force plus what the stiffness and the
+bias add) ``|x(t)| <= min(alpha2 D, a t^2 / 2)``.  Putting that envelope into the sum
+gives a floor no admissible motion can beat (docs/noise.md derives it):
+
+* ``final``: the standard deviation of the last estimate (the root-mean-square of the
+  final accuracy); the mean ``E|err|`` of a Gaussian error is ``sqrt(2/pi)`` of it;
+* ``convergence_accuracy(t0)``: Eq. 19 after a convergence time t0,
+  ``sqrt(mean_{n >= n0} Var_floor(n))`` for its root mean square, and ``sqrt(2/pi)``
+  of that for its mean (``E||v|| >= sqrt(2/pi) sqrt(E||v||^2)`` for any Gaussian vector:
+  ``E sqrt(sum l_i Z_i^2)`` is concave in the eigenvalues ``l``, least at one of them);
+* ``m_floor``: the least ``w1 t0 + w2 E[obj2]`` over t0 (Eq. 29 at its own best
+  convergence time; the steps of Eq. 18 are not bounded, so this is lower than any M).
+
+With ``constraints="reference"`` Eq. 20 bounds the reference, not the commanded force;
+the actuator's hard limit ``F_max`` is then the acceleration bound.
+
+How tight the floor is: :func:`near_optimal_motion` builds an admissible motion (rise to
+``+alpha2 D``, hold, cross to ``-alpha2 D``, hold, with raised-cosine transitions at 90 %
+of the force limit) whose own bound is within a few per cent of the floor; the simulator
+run on it over many seeds lands on that bound (tests/physics/test_floor.py).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from tmopt.physics.information import equation_noise_sigma
+from tmopt.physics.objectives import PARAMETERS
+
+__all__ = ["StiffnessFloor", "stiffness_floor", "near_optimal_motion"]
+
+_MEAN_OF_ABS = math.sqrt(2 / math.pi)  # E|Z| / sqrt(E Z^2) for a Gaussian
+
+
+@dataclass(frozen=True)
+class StiffnessFloor:
+    """The floor of one identified stiffness ``k_jj`` (j = ``idx``) for one problem.
+
+    Attributes: ``sigma_e`` equation noise per sample [m s^-2]; ``coefficient`` |K_j|;
+    ``x_max`` the motion limit alpha2 D [m]; ``accel_max`` the acceleration bound [m s^-2];
+    ``sample_rate`` [Hz]; ``n_steps`` N; ``prior_info`` the RLS prior's information on
+    k_jj [s^4] (negligible, kept so the floor stays a bound on the RLS itself);
+    ``force_limit`` the commanded-force limit of Eq. 20 [m s^-2].
+    """
+
+    idx: int
+    sigma_e: float
+    coefficient: float
+    x_max: float
+    accel_max: float
+    sample_rate: float
+    n_steps: int
+    prior_info: float
+    force_limit: float
+
+    def envelope(self) -> np.ndarray:
+        """``min(x_max, a t_n^2 / 2)`` at every sample (N,) [m]: no admissible |x_n| exceeds it."""
+        t = np.arange(self.n_steps) / self.sample_rate
+        return np.minimum(self.x_max, 0.5 * self.accel_max * t**2)
+
+    def variance(self) -> np.ndarray:
+        """Least variance of the estimate after each sample (N,) [s^-4]."""
+        info = self.prior_info + np.cumsum((self.coefficient * self.envelope()
+                                            / self.sigma_e) ** 2)  # fmt: skip
+        return 1.0 / info
+
+    @property
+    def final(self) -> float:
+        """Least root-mean-square error of the final estimate [s^-2]."""
+        return float(math.sqrt(self.variance()[-1]))
+
+    @property
+    def final_mean(self) -> float:
+        """Least mean absolute error of the final estimate [s^-2] (``sqrt(2/pi)`` final)."""
+        return _MEAN_OF_ABS * self.final
+
+    def convergence_accuracy(self, t0, statistic: str = "rms") -> np.ndarray | float:
+        """Least Eq. 19 after convergence time(s) ``t0`` [s]: ``"rms"`` (root mean square
+        over noise draws) or ``"mean"``; a float for a scalar t0."""
+        if statistic not in ("rms", "mean"):
+            raise ValueError(f"statistic must be 'rms' or 'mean'; got {statistic!r}")
+        var = self.variance()
+        tail = np.cumsum(var[::-1])[::-1] / (self.n_steps - np.arange(self.n_steps))
+        n0 = np.clip(np.round(np.asarray(t0, float) * self.sample_rate).astype(int), 0,
+                     self.n_steps - 1)  # fmt: skip
+        out = np.sqrt(tail[n0]) * (_MEAN_OF_ABS if statistic == "mean" else 1.0)
+        return float(out) if np.ndim(out) == 0 else out
+
+    def m_floor(self, weights: tuple[float, float] = (1 / 60, 1e10)) -> tuple[float, float]:
+        """``(M, t0)``: the least ``w1 t0 + w2 E[obj2](t0)`` (Eq. 29) and where it is."""
+        t0 = np.arange(self.n_steps) / self.sample_rate
+        m = weights[0] * t0 + weights[1] * self.convergence_accuracy(t0, "mean")
+        best = int(np.argmin(m))
+        return float(m[best]), float(t0[best])
+
+    def as_dict(self, t0: float | None = None,
+                weights: tuple[float, float] = (1 / 60, 1e10)) -> dict:  # fmt: skip
+        """The numbers a run reports (metrics.json ``floor``); ``t0`` adds Eq. 19's floor at
+        that convergence time."""
+        m, t_m = self.m_floor(weights)
+        out = {"parameter": PARAMETERS[self.idx], "sigma_e": self.sigma_e,
+               "x_max": self.x_max, "accel_max": self.accel_max,
+               "duration": self.n_steps / self.sample_rate, "sample_rate": self.sample_rate,
+               "final_accuracy_rms": self.final, "final_accuracy_mean": self.final_mean,
+               "M": m, "M_at_convergence_time": t_m}  # fmt: skip
+        if t0 is not None:
+            out["convergence_time"] = float(t0)
+            out["convergence_accuracy_rms"] = self.convergence_accuracy(t0, "rms")
+            out["convergence_accuracy_mean"] = self.convergence_accuracy(t0, "mean")
+        return out
+
+
+def stiffness_floor(config, idx: int, constraints: str) -> StiffnessFloor:
+    """The floor of ``k_jj`` (``idx`` 0: k1xx, 1: k2xx) for a simulator configuration.
+
+    ``config``: the problem's :class:`~tmopt.physics.simulator.SimulationConfig` (noise,
+    duration, rate, limits, truths); ``constraints``: where the problem evaluates Eq. 20
+    (its ``constraint_mode``): ``"realised"`` (the commanded force, ``alpha1 F_max``) or
+    ``"reference"`` (the actuator's ``F_max``).
+    """
+    if idx not in (0, 1):
+        raise ValueError(f"idx must be 0 (k1xx) or 1 (k2xx); got {idx!r}")
+    if constraints not in ("realised", "reference"):
+        raise ValueError(f"constraints must be 'realised' or 'reference'; got {constraints!r}")
+    x_max = config.alpha2 * config.gap
+    force = config.alpha1 * config.f_max if constraints == "realised" else config.f_max
+    stiffness = abs(float(config.theta_true[idx]))
+    bias = abs((config.bias_1, config.bias_2)[idx][0])
+    sigma_e = equation_noise_sigma(config)
+    if sigma_e <= 0:
+        raise ValueError("the floor needs noise: every noise sigma of the config is 0")
+    coefficient = abs(float(config.coefficients[idx]))
+    sx = config.rls_scales[0]
+    prior_info = sx**2 / (sigma_e**2 * config.rls_p0)  # P0 in the RLS's scaled units
+    return StiffnessFloor(idx=idx, sigma_e=sigma_e, coefficient=coefficient, x_max=x_max,
+                          accel_max=force + stiffness * x_max + bias,
+                          sample_rate=float(config.sample_rate), n_steps=config.n_steps,
+                          prior_info=prior_info, force_limit=force)  # fmt: skip
+
+
+def near_optimal_motion(floor: StiffnessFloor, margin: float = 0.8,
+                        switch: float | None = None) -> np.ndarray:  # fmt: skip
+    """An admissible reference (N,) [m] that comes close to the floor.
+
+    Rise from 0 to ``+x_max``, hold, cross to ``-x_max``, hold (``x_max`` less 1e-4 of it,
+    room for the loop's tracking error).  It starts at rest by itself, so it is meant to
+    be simulated without a ramp-in (``ramp_in=0``; a ramp would only add acceleration).
+    Each transition of height
+    h is a cycloid ``h (s - sin(2 pi s) / (2 pi))``, ``s = t / tau``: it starts and ends
+    with zero velocity and acceleration and peaks at ``2 pi h / tau^2 = margin`` times the
+    force limit (the rest is room for the controller's tracking).  ``switch`` [s] is the
+    start of the crossing; by default the one that maximises ``sum (x - mean x)^2`` (the
+    information on k with the intercept R fitted).
+    """
+    if not 0 < margin <= 1:
+        raise ValueError(f"margin must be in (0, 1]; got {margin!r}")
+    t = np.arange(floor.n_steps) / floor.sample_rate
+    a = margin * floor.force_limit
+    x = floor.x_max * (1 - 1e-4)  # 40 nm of room for the tracking error (~10 nm)
+
+    def cycloid(start: float, height: float) -> np.ndarray:
+        tau = math.sqrt(2 * math.pi * height / a)
+        s = np.clip((t - start) / tau, 0.0, 1.0)
+        return height * (s - np.sin(2 * math.pi * s) / (2 * math.pi))
+
+    rise = math.sqrt(2 * math.pi * x / a)
+    cross = math.sqrt(2 * math.pi * 2 * x / a)
+
+    def motion(ts: float) -> np.ndarray:
+        return cycloid(0.0, x) - cycloid(ts, 2 * x)
+
+    if switch is None:
+        grid = np.arange(rise, max(rise, t[-1] - cross) + 1.0, 1.0)
+        spread = [np.var(motion(ts)) for ts in grid]
+        switch = float(grid[int(np.argmax(spread))])
+    return motion(switch)
