@@ -85,7 +85,15 @@ def test_both_sweeps_through_basic_and_joblib_then_collect_lists_failed_and_inco
     (failed / "archive.h5").write_bytes(b"not an HDF5 file")
     _sweep(TABLE3, sweep)  # basic launcher
     _sweep(SCHEME_K, sweep, "local_parallel")  # joblib launcher, 2 processes
-    assert json.loads((failed / "failure.json").read_text())["error"] == "ArchiveError"
+    # an archive that cannot be read is kept aside and the run starts over (issue 20)
+    assert (failed / "archive.h5.unreadable").read_bytes() == b"not an HDF5 file"
+    assert json.loads((failed / "metrics.json").read_text())["status"] == "complete"
+    # for collect: the folder of a run that stopped on an unreadable archive, as round one
+    # left it (cli._record_failure writes failure.json; the archive stays unreadable)
+    (failed / "metrics.json").unlink()
+    (failed / "archive.h5").write_bytes(b"not an HDF5 file")
+    (failed / "failure.json").write_text(json.dumps({"error": "ArchiveError",
+                                                     "message": "archive.h5: unreadable"}))
     unfinished = sweep / _folder("algorithm=nsga2", "problem=mw1", "seed=1")
     (unfinished / "metrics.json").unlink()
 
@@ -131,13 +139,14 @@ def test_both_sweeps_through_basic_and_joblib_then_collect_lists_failed_and_inco
         "2", "1")
 
     # the same command through the other launcher (one worker: only resume/skip is checked);
-    # the finished runs are not even launched (tmopt/run/sweep_resume.py), the failed one is,
-    # to say again why it fails
+    # the finished runs are not even launched (tmopt/run/sweep_resume.py); the failed one
+    # (unreadable archive) starts over, its archive kept aside
     done = sweep / _folder("algorithm=nsga3", "problem=stiffness", "seed=0")
     done_log = (done / "tmopt.log").read_text()
     out = _sweep(TABLE3, sweep, "local_parallel", "hydra.launcher.n_jobs=1")
     assert ("tmopt sweep: 8 runs: 6 skipped (complete), 1 resumed (40 archived evaluations), "
-            "1 blocked (launched to report why), 0 started; launching 2") in out
+            "1 started; launching 2") in out
+    assert json.loads((failed / "metrics.json").read_text())["status"] == "complete"
     assert "resuming from 40" in (unfinished / "tmopt.log").read_text()
     assert (done / "tmopt.log").read_text() == done_log
 
