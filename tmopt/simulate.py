@@ -71,7 +71,9 @@ def run(settings: Settings | None = None, seed: int = 0, **options: Any) -> Simu
     return simulate(ref1[None], ref2[None], config(settings), seed=seed)
 
 
-def summary(result: SimulationResult, eps: float = 1e-10) -> dict[str, dict[str, float]]:
+def summary(
+    result: SimulationResult, eps: float = objectives.EPSILON
+) -> dict[str, dict[str, float]]:
     """Per test mass: Eqs. 18, 19, 29 and the final error of its sensitive-axis stiffness,
     and the realised run -- largest displacement and commanded force, tracking errors and
     Eq. 20 on them (``eq20_*`` = value / limit - 1, feasible <= 0)."""
