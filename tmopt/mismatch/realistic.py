@@ -65,6 +65,7 @@ from tmopt.mismatch.generate import (
     residual_families,
     whitened_power,
 )
+from tmopt.physics.control import PAPER_RATE
 from tmopt.physics.geometry import Geometry
 from tmopt.physics.recording import AXES, ROTATION_CHANNELS, Recording, validate
 from tmopt.physics.scenario import Settings, excitation, simulation_config
@@ -121,7 +122,7 @@ class Scenario:
     """
 
     duration: float = 1800.0
-    sample_rate: float = 10.0
+    sample_rate: float = PAPER_RATE
     stiffness: tuple[float, float, float, float] = (1e-7, 1e-7, 1e-7, 1e-7)
     bias: tuple[float, float, float, float] = (1e-10, 1e-10, 1e-10, 1e-10)
     tones: tuple[tuple[tuple[float, float, float], ...], ...] = ((), (), (), ())
