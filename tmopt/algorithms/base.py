@@ -183,6 +183,14 @@ class Algorithm(ABC):
         """Update the state with evaluated designs."""
 
 
+def check_surrogate_factory(algorithm: str, surrogate):
+    """``surrogate`` unchanged when None or callable (a zero-argument Surrogate factory)."""
+    if surrogate is not None and not callable(surrogate):
+        raise AlgorithmConfigError(f"algorithm {algorithm}: surrogate must be a "
+                                   f"zero-argument factory, got {surrogate!r}")
+    return surrogate
+
+
 def check_int(algorithm: str, label: str, value, minimum: int) -> int:
     """``value`` as an int, or :class:`AlgorithmConfigError` unless an integer >= minimum."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:

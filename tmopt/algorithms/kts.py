@@ -85,9 +85,13 @@ from scipy.cluster.vq import kmeans2
 from scipy.spatial.distance import cdist
 from scipy.stats import mannwhitneyu
 
-from tmopt.algorithms.base import Algorithm, AlgorithmConfigError, check_int, check_number
+from tmopt.algorithms.base import (
+    Algorithm,
+    check_int,
+    check_number,
+    check_surrogate_factory,
+)
 from tmopt.algorithms.mgsaea import (
-    SAME_DESIGN_TOL,
     AlgorithmStateError,
     SurrogateFactory,
     default_surrogate_factory,
@@ -100,6 +104,7 @@ from tmopt.algorithms.operators.survival import (
     spea2_fitness,
 )
 from tmopt.algorithms.operators.variation import (
+    already_evaluated,
     ga_offspring,
     polynomial_mutation,
     tournament,
@@ -264,10 +269,7 @@ class KTS(Algorithm):
         self.crossover_eta = check_number(name, "crossover_eta", crossover_eta, 0.0)
         self.mutation_eta = check_number(name, "mutation_eta", mutation_eta, 0.0)
         self.normalise = bool(normalise)
-        if surrogate is not None and not callable(surrogate):
-            raise AlgorithmConfigError(f"algorithm {name}: surrogate must be a "
-                                       f"zero-argument factory, got {surrogate!r}")
-        self._factory = surrogate
+        self._factory = check_surrogate_factory(name, surrogate)
 
     # ---- framework hooks -----------------------------------------------------------------
     def _setup(self) -> None:
@@ -472,11 +474,7 @@ class KTS(Algorithm):
         return cp2.X[np.sort(picks)]
 
     def _already_seen(self, X: np.ndarray) -> np.ndarray:
-        if len(X) == 0:
-            return np.zeros(0, dtype=bool)
-        span = self.problem.xu - self.problem.xl
-        d = cdist(X / span, self._seen / span, metric="chebyshev")
-        return (d <= SAME_DESIGN_TOL).any(axis=1)
+        return already_evaluated(X, self._seen, self.problem.xl, self.problem.xu)
 
     # ---- step 6: tell ----------------------------------------------------------------------
     def _advance(self, batch: EvaluatedBatch) -> None:

@@ -74,13 +74,22 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from pymoo.operators.sampling.lhs import LHS
-from scipy.spatial.distance import cdist
 
-from tmopt.algorithms.base import Algorithm, AlgorithmConfigError, check_int
+from tmopt.algorithms.base import (
+    Algorithm,
+    AlgorithmConfigError,
+    check_int,
+    check_surrogate_factory,
+)
 from tmopt.algorithms.operators.constraints import choose_granularity
 from tmopt.algorithms.operators.stage import change_rate
 from tmopt.algorithms.operators.survival import environmental_selection, spea2_fitness
-from tmopt.algorithms.operators.variation import ga_offspring, tournament, unique_rows
+from tmopt.algorithms.operators.variation import (
+    already_evaluated,
+    ga_offspring,
+    tournament,
+    unique_rows,
+)
 from tmopt.evaluation.evaluator import EvaluatedBatch
 from tmopt.metrics.indicators import constraint_violation
 from tmopt.problems.base import ConstraintGroup, ExpensiveProblem
@@ -89,8 +98,6 @@ from tmopt.surrogates.base import Surrogate
 log = logging.getLogger(__name__)
 
 SurrogateFactory = Callable[[], Surrogate]
-#: Designs closer than this (per variable, relative to the bounds) count as the same design.
-SAME_DESIGN_TOL = 1e-9
 
 
 class AlgorithmStateError(RuntimeError):
@@ -223,10 +230,7 @@ class MGSAEA(Algorithm):
         self.crossover_eta = self._positive("crossover_eta", crossover_eta)
         self.mutation_eta = self._positive("mutation_eta", mutation_eta)
         self.normalise = bool(normalise)
-        if surrogate is not None and not callable(surrogate):
-            raise AlgorithmConfigError(f"algorithm {self.name}: surrogate must be a "
-                                       f"zero-argument factory, got {surrogate!r}")
-        self._factory = surrogate
+        self._factory = check_surrogate_factory(self.name, surrogate)
 
     # ---- argument checks ------------------------------------------------------------------
     def _positive(self, label: str, value) -> float:
@@ -408,9 +412,7 @@ class MGSAEA(Algorithm):
         return X[keep]
 
     def _already_seen(self, X: np.ndarray) -> np.ndarray:
-        span = self.problem.xu - self.problem.xl
-        d = cdist(X / span, self._seen / span, metric="chebyshev")
-        return (d <= SAME_DESIGN_TOL).any(axis=1)
+        return already_evaluated(X, self._seen, self.problem.xl, self.problem.xu)
 
     # ---- tell -------------------------------------------------------------------------------
     def _advance(self, batch: EvaluatedBatch) -> None:

@@ -57,16 +57,20 @@ from pymoo.operators.sampling.lhs import LHS
 from scipy.spatial.distance import cdist
 from scipy.stats import norm
 
-from tmopt.algorithms.base import Algorithm, AlgorithmConfigError, check_int, check_number
+from tmopt.algorithms.base import (
+    Algorithm,
+    check_int,
+    check_number,
+    check_surrogate_factory,
+)
 from tmopt.algorithms.mgsaea import (
-    SAME_DESIGN_TOL,
     AlgorithmStateError,
     SurrogateFactory,
     default_surrogate_factory,
 )
 from tmopt.algorithms.operators.constraints import cdp_sort
 from tmopt.algorithms.operators.survival import farthest_points, truncation
-from tmopt.algorithms.operators.variation import ga_offspring, unique_rows
+from tmopt.algorithms.operators.variation import already_evaluated, ga_offspring, unique_rows
 from tmopt.evaluation.evaluator import EvaluatedBatch
 from tmopt.metrics.indicators import constraint_violation
 from tmopt.surrogates.base import Surrogate
@@ -141,10 +145,7 @@ class PEA(Algorithm):
         self.crossover_eta = check_number(name, "crossover_eta", crossover_eta, 0.0)
         self.mutation_eta = check_number(name, "mutation_eta", mutation_eta, 0.0)
         self.normalise = bool(normalise)
-        if surrogate is not None and not callable(surrogate):
-            raise AlgorithmConfigError(f"algorithm {name}: surrogate must be a "
-                                       f"zero-argument factory, got {surrogate!r}")
-        self._factory = surrogate
+        self._factory = check_surrogate_factory(name, surrogate)
 
     def _setup(self) -> None:
         self._X = np.zeros((0, self.problem.n_var))  # the database (successful designs)
@@ -277,9 +278,7 @@ class PEA(Algorithm):
         return (self._F[keep] - lo) / span
 
     def _already_seen(self, X: np.ndarray) -> np.ndarray:
-        span = self.problem.xu - self.problem.xl
-        d = cdist(X / span, self._seen / span, metric="chebyshev")
-        return (d <= SAME_DESIGN_TOL).any(axis=1)
+        return already_evaluated(X, self._seen, self.problem.xl, self.problem.xu)
 
     # ---- tell ------------------------------------------------------------------------------
     def _advance(self, batch: EvaluatedBatch) -> None:

@@ -19,6 +19,20 @@ from pymoo.operators.crossover.binx import mut_binomial
 from pymoo.operators.crossover.dex import de_differential
 from pymoo.operators.crossover.sbx import cross_sbx
 from pymoo.operators.mutation.pm import mut_pm
+from scipy.spatial.distance import cdist
+
+#: Designs closer than this (per variable, relative to the bounds) count as the same design.
+SAME_DESIGN_TOL = 1e-9
+
+
+def already_evaluated(X: np.ndarray, seen: np.ndarray, xl: np.ndarray,
+                      xu: np.ndarray) -> np.ndarray:
+    """(n,) bool: rows of ``X`` (n, D) within SAME_DESIGN_TOL (Chebyshev, relative to the
+    bounds) of a row of ``seen`` (m, D) -- a design the algorithm must not pay for twice."""
+    if len(X) == 0 or len(seen) == 0:
+        return np.zeros(len(X), dtype=bool)
+    span = xu - xl
+    return (cdist(X / span, seen / span, metric="chebyshev") <= SAME_DESIGN_TOL).any(axis=1)
 
 
 def tournament(fitness: ArrayLike, n: int, rng: np.random.Generator, k: int = 2) -> np.ndarray:
