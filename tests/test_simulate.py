@@ -79,6 +79,14 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys):
     assert "sample_rate must be finite and in [1, inf) Hz" in err and "\n" not in err
 
 
+def test_an_output_it_cannot_write_is_refused_before_simulating(tmp_path, capsys):
+    assert main(["--duration", "60", "--out", str(tmp_path / "x.txt")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (f"tmopt.simulate: error: --out {tmp_path / 'x.txt'}: unknown recording "
+                   "extension '.txt'; use .h5, .hdf5 or .csv")
+    assert not list(tmp_path.iterdir())  # nothing simulated, nothing written
+
+
 def test_the_command_is_physics_only(tmp_path):
     # python -m tmopt.simulate runs without loading any module of the mismatch tool
     code = ("import sys\nfrom tmopt.simulate import main\n"

@@ -20,9 +20,9 @@ from pathlib import Path
 def atomic_write(path: str | Path, write: Callable[[str], None]) -> None:
     """Call ``write(tmp)`` on a temporary file next to ``path``, then rename it into place.
 
-    The file is made ``0o644`` (mkstemp's 0o600 would hide run folders and recordings from
-    the other users of a shared folder; reading the umask would need a process-wide, racy
-    call).
+    The file gets the mode an ordinary ``open()`` would give it, ``0o666 & ~umask``
+    (mkstemp's 0o600 would hide metrics, archives and tables from the collaborators of a
+    shared cluster folder; a fixed mode would ignore a user who wants them private).
 
     Args:
         path: The file to write.
@@ -32,7 +32,7 @@ def atomic_write(path: str | Path, write: Callable[[str], None]) -> None:
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     os.close(fd)
     try:
-        os.chmod(tmp, 0o644)
+        os.chmod(tmp, 0o666 & ~current_umask())
         write(tmp)
         with open(tmp, "rb") as fh:
             os.fsync(fh.fileno())
@@ -50,6 +50,33 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
 def atomic_write_text(path: str | Path, text: str) -> None:
     """Write ``text`` (UTF-8) to ``path`` atomically (:func:`atomic_write`)."""
     atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def current_umask() -> int:
+    """The process's umask, read without changing it where the kernel reports it
+    (``/proc/self/status``, Linux >= 4.7); elsewhere set and restored at once."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)  # the only portable way to read it; restored on the next line
+    os.umask(mask)
+    return mask
+
+
+def remove_stale_temporaries(folder: str | Path) -> list[Path]:
+    """Delete the temporary files (``.NAME.*.tmp``) that writers killed mid-write left in
+    ``folder``; return them. Call only while no other process writes there (under the
+    run lock): a live writer's temporary file has the same name pattern."""
+    removed = []
+    for tmp in Path(folder).glob(".*.tmp"):
+        if tmp.is_file():
+            _remove_quietly(tmp)
+            removed.append(tmp)
+    return removed
 
 
 def _remove_quietly(path: str | Path) -> None:

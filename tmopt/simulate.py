@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import types
 from collections.abc import Sequence
 from dataclasses import asdict, replace
 from pathlib import Path
@@ -32,7 +33,12 @@ import numpy as np
 from tmopt.physics import objectives
 from tmopt.physics.control import JACOBIANS
 from tmopt.physics.geometry import Geometry
-from tmopt.physics.recording import recording_from_simulation, write_recording
+from tmopt.physics.recording import (
+    RecordingError,
+    recording_format,
+    recording_from_simulation,
+    write_recording,
+)
 from tmopt.physics.scenario import Y_AXES, Settings, excitation_axes, simulation_config
 from tmopt.physics.simulator import RLS_COLUMN_SETS, SimulationConfig, SimulationResult, simulate
 
@@ -51,17 +57,25 @@ def config(settings: Settings) -> SimulationConfig:
     return simulation_config(settings, Geometry())
 
 
-def run(settings: Settings, seed: int = 0, **options: Any) -> SimulationResult:
+def run(settings: Settings | None = None, seed: int = 0, **options: Any) -> SimulationResult:
     """Simulate ``settings`` (excitation, duration, rate, noise, controller, truths and the
-    physics options ``ramp_in``, ``rls_columns``, ``y_axes``, ``jacobian``); ``options``
-    replace fields of ``settings``."""
-    settings = replace(settings, **options)
+    physics options ``ramp_in``, ``rls_columns``, ``y_axes``, ``jacobian``; None: the
+    paper's defaults); ``options`` replace fields of ``settings``. The excitation may also
+    set y set points (``multisine:x1;x2;y1;y2``), which the y loops track.
+
+    This is also what ``tmopt.simulate(...)`` calls: the module is callable (below), so
+    ``from tmopt import simulate; result = simulate(duration=60, seed=1)`` works beside
+    ``python -m tmopt.simulate``.
+    """
+    settings = replace(Settings() if settings is None else settings, **options)
     refs, _ = excitation_axes(settings.excitation, settings.duration, settings.sample_rate)
     ref_y = (refs[2][None], refs[3][None]) if np.any(refs[2:]) else None
     return simulate(refs[0][None], refs[1][None], config(settings), seed=seed, ref_y=ref_y)
 
 
-def summary(result: SimulationResult, eps: float = 1e-10) -> dict[str, dict[str, float]]:
+def summary(
+    result: SimulationResult, eps: float = objectives.EPSILON
+) -> dict[str, dict[str, float]]:
     """Per test mass: Eqs. 18, 19, 29 and the final error of its sensitive-axis stiffness,
     and the realised run -- largest displacement and commanded force, tracking errors and
     Eq. 20 on them (``eq20_*`` = value / limit - 1, feasible <= 0)."""
@@ -126,17 +140,26 @@ def plot(result: SimulationResult, path: Path) -> None:
     t = result.time
     fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
     for ax, tm in zip(axes[:2], (1, 2)):
-        ax.plot(t, getattr(result, f"ref_x{tm}")[0], label="reference", lw=1)
+        ref = getattr(result, f"ref_x{tm}")[0]
+        ax.plot(t, ref, label="reference", lw=1)
         ax.plot(t, getattr(result, f"x{tm}")[0], "--", label="controlled (measured)", lw=1)
-        ax.set_ylabel(f"x{tm} [m]")
-        ax.legend(fontsize=8)
+        ax.set_ylabel(f"TM{tm} sensitive axis x{tm} [m]")
+        # reference and motion overlap at this scale: the tracking error on its own axis
+        err = ax.twinx()
+        err.plot(t, ref - getattr(result, f"x{tm}_true")[0], color="0.5", lw=0.6,
+                 label="tracking error r - x (true)")
+        err.set_ylabel("tracking error [m]", color="0.4")
+        lines = ax.get_legend_handles_labels(), err.get_legend_handles_labels()
+        ax.legend(lines[0][0] + lines[1][0], lines[0][1] + lines[1][1], fontsize=7,
+                  loc="upper right")
     for name, idx in PARAMETERS.items():
-        axes[2].plot(t, result.theta_hat[0, :, idx], label=name)
-        axes[2].axhline(result.config.theta_true[idx], color="0.6", lw=0.8)
+        axes[2].plot(t, result.theta_hat[0, :, idx], label=f"{name} estimate (RLS)")
+        axes[2].axhline(result.config.theta_true[idx], color="0.4", lw=0.8, ls=":",
+                        label=f"{name} truth")
     truth = result.config.theta_true[:2]
     span = max(float(np.max(np.abs(truth))), 1e-9)
     axes[2].set_ylim(truth.min() - span, truth.max() + span)  # the start-up transient is huge
-    axes[2].set_ylabel("RLS estimate [s^-2]")
+    axes[2].set_ylabel("stiffness [s$^{-2}$]")
     axes[2].set_xlabel("time [s]")
     axes[2].legend(fontsize=8)
     fig.tight_layout()
@@ -183,6 +206,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                             description=f"tmopt.simulate {args.excitation}")
         if args.seed < 0:
             raise ValueError(f"seed must be an integer >= 0, got {args.seed}")
+        try:
+            recording_format(args.out)
+        except RecordingError as exc:
+            raise ValueError(f"--out {exc}") from None
         result = run(settings, seed=args.seed)
     except ValueError as exc:
         print(f"tmopt.simulate: error: {exc}", file=sys.stderr)
@@ -203,6 +230,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"json: {path}")
     return 0
 
+
+class _CallableModule(types.ModuleType):
+    """``tmopt.simulate`` is both this module and the function :func:`run`."""
+
+    def __call__(self, settings: Settings | None = None, seed: int = 0,
+                 **options: Any) -> SimulationResult:
+        return run(settings, seed, **options)
+
+
+sys.modules[__name__].__class__ = _CallableModule
 
 if __name__ == "__main__":
     sys.exit(main())

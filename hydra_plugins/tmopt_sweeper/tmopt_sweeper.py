@@ -4,7 +4,9 @@ The cartesian product, batching and launching are Hydra's :class:`BasicSweeper`'
 the first batch is launched every job of the sweep is composed (as the basic sweeper's own
 validation and the launcher compose it) and classified by
 :func:`tmopt.run.sweep_resume.plan_sweep`; one summary line says what is skipped, resumed and
-started, and each batch goes to the launcher without its skipped and running jobs.
+started, and each batch goes to the launcher without its skipped and running jobs. A sweep
+without ``name=`` gets a name derived from its overrides (:func:`tmopt.run.config.sweep_name`),
+so sweeps do not all land in ``multirun/default``.
 """
 
 # No `from __future__ import annotations`: Hydra execs plugin modules outside sys.modules,
@@ -16,7 +18,9 @@ from typing import Optional
 
 from hydra._internal.core_plugins.basic_sweeper import BasicSweeper, BasicSweeperConf
 from hydra.core.config_store import ConfigStore
+from omegaconf import open_dict, read_write
 
+from tmopt.run.config import sweep_name
 from tmopt.run.sweep_resume import RunPlan, detail_lines, job_target, plan_sweep, summary_line
 
 log = logging.getLogger(__name__)
@@ -41,6 +45,12 @@ class ResumingSweeper(BasicSweeper):
 
     def sweep(self, arguments: list[str]):
         self.plans = None
+        if not self.config.get("name"):  # a sweep without name=: one derived from its overrides
+            name = sweep_name("", arguments)
+            with read_write(self.config), open_dict(self.config):
+                self.config.name = name
+            arguments = [*arguments, f"name='{name}'"]  # quoted: it holds '=' and '+'
+
         return super().sweep(arguments)
 
     def is_done(self) -> bool:

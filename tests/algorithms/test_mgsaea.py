@@ -21,6 +21,7 @@ from tmopt.algorithms.mgsaea import (
     _Set,
     violation_scale,
 )
+from tmopt.algorithms.operators.stage import change_rate
 from tmopt.metrics.indicators import constraint_violation
 from tmopt.metrics.selection import best_compromise
 from tmopt.problems.base import ConstraintGroup, ExpensiveProblem
@@ -117,6 +118,23 @@ def test_stage_one_models_per_variant(cls, n_outputs, con):
     assert alg.info()["models"] == n_outputs
 
 
+def test_ipc_says_its_fallback_on_an_ungrouped_problem_once(caplog, monkeypatch):
+    import tmopt.algorithms.mgsaea as mgsaea
+
+    monkeypatch.setattr(mgsaea, "_FALLBACK_SAID", set())  # a fresh process
+    problem = PymooBenchmark("mw3", n_var=4)
+    for _ in range(3):  # three runs of a sweep in one process
+        MGSAEAIPC(surrogate=RBFDouble, pop_size=10, n_init=20).setup(problem, budget=30,
+                                                                       seed=0)
+    said = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert len(said) == 1 and "problem mw3 declares no constraint groups" in said[0]
+    assert "its first constraint (g1) is taken as the key individual's" in said[0]
+    caplog.clear()
+    MGSAEAIPC(surrogate=RBFDouble, pop_size=10, n_init=20).setup(
+        PymooBenchmark("mw3", n_var=4, constraint_groups="split"), budget=30, seed=0)
+    assert "declares no constraint groups" not in caplog.text
+
+
 def test_ipc_key_group_follows_declared_priority_and_split_grouping():
     alg = MGSAEAIPC()
     assert alg.stage_one_indices(TwoGroupProblem()) == (2,)
@@ -137,6 +155,30 @@ def test_stage_switch_after_gap_iterations_when_mc_is_below_threshold():
     never = small(MGSAEAIPC, gap=2, threshold=1e-300)
     run(never, TwoGroupProblem(), budget=20 + 4 * 5)
     assert never.stage == 1
+
+
+def test_summary_reports_the_stage_reached_the_switch_and_the_change_rates():
+    alg = small(MGSAEAIPC, gap=2, threshold=1e9)  # the first measured mc switches
+    res = run(alg, TwoGroupProblem(), budget=20 + 4 * 5)
+    summary = res.metrics["algorithm_summary"]
+    # iterations 1-2 record ideal points; the 3rd measures mc against the 1st and switches
+    assert summary["stage_reached"] == 2 and summary["switch_iteration"] == 3
+    assert summary["iterations"] == 4 and summary["stage_two_possible"]
+    mc = change_rate(alg._ideal[2], alg._ideal[0], sigma=alg.sigma)
+    assert summary["mc"] == {"n": 1, "first": mc, "last": mc, "min": mc, "median": mc,
+                             "max": mc}
+    stage_two = {f"stage2:{alg.info()['granularity']}"}
+    assert summary["granularity_iterations"].keys() - stage_two == {"stage1:key"}
+    assert sum(summary["granularity_iterations"].values()) == 4
+    assert summary["granularity_iterations"]["stage1:key"] == 2
+
+    never = small(MGSAEAIPC, gap=2, threshold=1e-300)
+    summary = run(never, TwoGroupProblem(), budget=20 + 4 * 5).metrics["algorithm_summary"]
+    assert summary["stage_reached"] == 1 and summary["switch_iteration"] is None
+    assert summary["mc"]["n"] == 2 and summary["granularity_iterations"] == {"stage1:key": 4}
+    short = small(MGSAEAIPC, gap=20)
+    summary = run(short, TwoGroupProblem(), budget=20 + 4 * 5).metrics["algorithm_summary"]
+    assert summary["mc"] is None and not summary["stage_two_possible"]
 
 
 def _stage_two(G: np.ndarray) -> ModelPlan:

@@ -165,6 +165,10 @@ def test_seconds_per_iteration_at_300_points_d18():
     ({"threads": 0}, "threads must be an integer >= 1, got 0"),
     ({"max_iter": -1}, "max_iter must be an integer >= 0, got -1"),
     ({"max_baseline": 0}, "max_baseline must be an integer >= 1, got 0"),
+    ({"refit_every": 0}, "refit_every must be an integer >= 1, got 0"),
+    ({"init_batch_limit": 0}, "init_batch_limit must be an integer >= 1, got 0"),
+    ({"prune_samples": 0}, "prune_samples must be an integer >= 1, got 0"),
+    ({"refit_guard": 0.0}, r"refit_guard must be a finite number in \(0.0, inf\), got 0.0"),
     ({"ref_point": "ideal"},
      r"ref_point must be one of \('feasible', 'front', 'all'\), got 'ideal'"),
 ])
@@ -306,8 +310,12 @@ def test_max_baseline_caps_the_designs_the_acquisition_integrates_over(monkeypat
     assert len(seen) == 2 and all(not p and n <= 3 for p, n, _ in seen)
     assert max(n for _, n, _ in seen) == 3
     seen.clear()
-    run(QLogNEHVI(n_init=10, max_baseline=50, **FAST), problem, budget=12, seed=1)
+    run(QLogNEHVI(n_init=10, max_baseline=50, prune_samples=None, **FAST), problem,
+        budget=12, seed=1)
     assert [(p, n) for p, n, _ in seen] == [(True, 10)]  # below the cap: BoTorch's pruning
+    seen.clear()
+    run(QLogNEHVI(n_init=10, **FAST), problem, budget=12, seed=1)  # prune_samples=512
+    assert len(seen) == 1 and not seen[0][0] and seen[0][1] <= 10  # pruned here
 
 
 def test_max_baseline_left_at_null_keeps_the_hash_of_configs_without_it():
@@ -325,3 +333,58 @@ def test_max_baseline_left_at_null_keeps_the_hash_of_configs_without_it():
     other = {**base, "algorithm": {"_target_": "x.Other", "max_baseline": None}}
     assert config_hash(OmegaConf.create(other)) != config_hash(OmegaConf.create(
         {**base, "algorithm": {"_target_": "x.Other"}}))  # only the listed algorithm
+
+
+def test_the_reference_yaml_pins_the_earlier_settings_and_keeps_their_config_hash():
+    """algorithm=qlognehvi_reference: the settings before docs/speed.md; its config hash
+    equals that of the same node without the arguments added since (earlier runs)."""
+    from omegaconf import OmegaConf
+
+    from tmopt.run.cli import option_config
+    from tmopt.run.config import config_hash
+
+    node = OmegaConf.to_container(option_config("algorithm", "qlognehvi_reference"))
+    alg = QLogNEHVI(**{k: v for k, v in node.items() if not k.startswith("_")})
+    assert (alg.cached_posterior, alg.init_batch_limit, alg.refit_every, alg.refit_guard,
+            alg.prune_samples) == (False, None, 1, None, None)
+    assert (alg.raw_samples, alg.acq_maxiter, alg.gp_max_iter) == (128, 100, 200)
+    added = ("cached_posterior", "init_batch_limit", "refit_every", "refit_guard",
+             "prune_samples", "max_baseline")
+    earlier = {k: v for k, v in node.items() if k not in added}
+    # the default surrogate group (unused by qLogNEHVI) as earlier runs had it
+    gp = OmegaConf.to_container(option_config("surrogate", "gp"))
+    gp_before = {**{k: v for k, v in gp.items() if k != "refit_guard"}, "refit_every": 1}
+    run = {"seed": 0, "budget": 300, "problem": {"_target_": "x.Problem"}}
+    assert config_hash(OmegaConf.create({**run, "algorithm": node, "surrogate": gp})) \
+        == config_hash(OmegaConf.create({**run, "algorithm": earlier, "surrogate": gp_before}))
+    assert config_hash(OmegaConf.create({**run, "algorithm": node})) \
+        == config_hash(OmegaConf.create({**run, "algorithm": earlier}))
+    ipc = {"_target_": "tmopt.algorithms.mgsaea.MGSAEAIPC"}  # uses the GP: numbers change
+    assert config_hash(OmegaConf.create({**run, "algorithm": ipc, "surrogate": gp})) \
+        != config_hash(OmegaConf.create({**run, "algorithm": ipc, "surrogate": gp_before}))
+    default = OmegaConf.to_container(option_config("algorithm", "qlognehvi"))
+    assert config_hash(OmegaConf.create({**run, "algorithm": default})) \
+        != config_hash(OmegaConf.create({**run, "algorithm": earlier}))
+
+
+def test_refit_every_keeps_the_gps_between_optimisations_and_checkpoints_them(tmp_path):
+    """Default settings: kept GPs between re-fits, and every fit (kept or not) is what
+    the checkpoint holds, so a resume can restore it."""
+    import torch
+
+    from tmopt.algorithms.base import CHECKPOINT_FILE
+
+    alg = QLogNEHVI(n_init=8, refit_every=3, refit_guard=None, **FAST)
+    stages = []
+    problem = PymooBenchmark("mw3", n_var=4)
+    alg.setup(problem, budget=18, seed=0)
+    alg.attach_checkpoint(tmp_path / CHECKPOINT_FILE)
+    ev = Evaluator(problem, 18)
+    while ev.remaining:
+        alg.tell(ev.evaluate(alg.ask()[: ev.remaining]))
+        if alg.iteration > 1:
+            stages.append(alg.gp.fit_info["stage"])
+            saved = torch.load(tmp_path / CHECKPOINT_FILE, weights_only=False)["payload"]
+            assert saved["iteration"] == alg.iteration - 1
+            assert saved["gp"]["fit_info"]["stage"] == stages[-1]
+    assert stages == ["mll", "kept_hypers", "kept_hypers", "mll", "kept_hypers"]

@@ -46,7 +46,8 @@ def test_frbf_learning_steps_are_minus_eta_times_the_finite_difference_gradient(
     _, f3 = _f4(x1, x2, c, b, w)
     c1, b1, w1 = c.copy(), b.copy(), w.copy()
     dc, db, dw, q = np.zeros_like(c), np.zeros_like(b), np.zeros_like(w), np.empty(N_RULE)
-    frbf_learn(x1, x2, g, c1, b1, w1, dc, db, dw, f3, q, eta, 0.0, 1e-6)
+    frbf_learn(x1, x2, g, c1, b1, w1, dc, db, dw, f3, q, eta, 0.0, 1e-6,
+               np.empty((2, 7)))
 
     def loss(cc, bb, ww):
         return float(g @ _f4(x1, x2, cc, bb, ww)[0])

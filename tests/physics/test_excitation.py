@@ -27,7 +27,8 @@ def test_shapes_broadcast_and_helpers():
     ms = MultiSine([[1e-4], [2e-5]], 2 * math.pi / 300, 0.0)
     assert (ms.batch_size, ms.n_components) == (2, 1)
     np.testing.assert_allclose(ms.max_accel(), [1e-4, 2e-5] * np.array((2 * math.pi / 300) ** 2))
-    np.testing.assert_allclose(ms.max_abs(), [1e-4, 2e-5], rtol=1e-6)  # full periods sampled
+    # full periods sampled on the paper's grid (1200 s at 10 Hz)
+    np.testing.assert_allclose(ms.max_abs(1200.0, 10.0), [1e-4, 2e-5], rtol=1e-6)
     assert ms.take(1).amplitude[0, 0] == 2e-5
     assert sample_times(1.0, 10.0).size == 10
 

@@ -23,7 +23,8 @@ from tmopt.reporting.tables import STIFFNESS_METRICS, summarise
 def _run(root: Path, name: str, overrides: dict, *, algorithm: str = "nsga2",
          scheme: str = "B", n_freq: int = 3, seed: int = 0, m: float | None = 5.0,
          status: str = "complete", problem: str = "stiffness", igd: float | None = None,
-         hv: float | None = None, below_floor: tuple[str, ...] = ()) -> Path:
+         hv: float | None = None, below_floor: tuple[str, ...] = (),
+         stage: int | None = None) -> Path:
     """A run folder as the CLI leaves it (only the files collect reads)."""
     path = root / name
     (path / ".hydra").mkdir(parents=True)
@@ -47,7 +48,8 @@ def _run(root: Path, name: str, overrides: dict, *, algorithm: str = "nsga2",
         metrics = {"status": "complete", "algorithm": algorithm, "seed": seed, "budget": 100,
                    "n_evals": 100, "wall_time_s": 2.0, "pareto_size": 1,
                    "chosen": {"feasible": True}, "identification": ident,
-                   "config_hash": f"{name}-hash", "igd": igd, "hv": hv}
+                   "config_hash": f"{name}-hash", "igd": igd, "hv": hv,
+                   "algorithm_summary": {} if stage is None else {"stage_reached": stage}}
         if m is not None:  # held-out scores: the search draw's M plus 1 (luck removed)
             stat = lambda v: {"mean": v, "std": 1.0, "median": v}  # noqa: E731
             metrics["heldout"] = {
@@ -79,6 +81,23 @@ def test_statuses_and_reasons_of_complete_failed_and_incomplete_runs(tmp_path):
     assert "| a |" not in status  # complete runs are not listed
     table3 = (out / "table3.md").read_text()
     assert "| NSGA-II | 1/3 |" in table3  # 1 of the setting's 3 runs entered the statistics
+
+
+def test_the_stage_reached_is_a_count_per_setting_and_na_without_stages(tmp_path):
+    for seed, stage in enumerate((1, 2, 2)):
+        _run(tmp_path, f"m{seed}", {"algorithm": "mgsaea_ipc", "seed": seed},
+             algorithm="mgsaea_ipc", seed=seed, stage=stage)
+    _run(tmp_path, "n0", {"algorithm": "nsga2", "seed": 0})
+    out = tmp_path / "out"
+    collect(tmp_path, out, fig10=False)
+    table = [line.strip("| ").split(" | ") for line in
+             (out / "table3.md").read_text().splitlines() if line.startswith("| ")]
+    column = table[0].index("stage two reached")
+    cells = {row[0]: row[column] for row in table[2:]}
+    assert cells == {"MGSAEA-IPC": "2/3", "NSGA-II": "n/a"}
+    with open(out / "table3.csv") as fh:
+        rows = {r["algorithm"]: r for r in csv.DictReader(fh)}
+    assert float(rows["mgsaea_ipc"]["stage_two_mean"]) == pytest.approx(2 / 3)
 
 
 def test_a_stale_failure_of_a_rerun_that_finished_does_not_hide_it(tmp_path):

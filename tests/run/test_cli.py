@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import platform
 import subprocess
 import sys
 from pathlib import Path
@@ -42,6 +43,7 @@ def test_run_writes_every_output_file_and_a_rerun_skips(tmp_path):
     metrics = json.loads((run_dir / "metrics.json").read_text())
     assert metrics["n_evals"] == 60 and metrics["budget"] == 60
     assert metrics["status"] == "complete"
+    _assert_versions_recorded(metrics["versions"])
     log = (run_dir / "tmopt.log").read_text()
     assert "evals 60/60" in log  # one progress line per generation
     assert log.count("| evals ") == 3
@@ -50,6 +52,22 @@ def test_run_writes_every_output_file_and_a_rerun_skips(tmp_path):
     again = tmopt(*args)
     assert again.returncode == 0
     assert "already complete" in (run_dir / "tmopt.log").read_text()
+
+
+def _assert_versions_recorded(versions: dict) -> None:
+    """The recorded versions are those the libraries report of themselves."""
+    import botorch
+    import gpytorch
+    import numpy
+    import scipy
+    import torch
+
+    assert versions["python"] == platform.python_version()
+    for module in (torch, botorch, gpytorch, numpy, scipy):
+        assert versions[module.__name__] == module.__version__, module.__name__
+    from pymoo.version import __version__ as pymoo_version
+    assert versions["pymoo"] == pymoo_version
+    assert {"numba", "hydra-core", "h5py"} <= versions.keys()
 
 
 @pytest.mark.parametrize("args, expected", [

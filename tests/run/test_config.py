@@ -26,10 +26,10 @@ PACKAGE = Path(__file__).resolve().parents[2] / "tmopt"
 OPTION_FILES = sorted(p for group in ("problem", "algorithm", "surrogate")
                       for p in (CONF_DIR / group).glob("*.yaml"))
 #: Arguments whose default value other signatures repeat for a reason of their own:
-#: ``seed`` 0 is "the first seed" everywhere; the stiffness problem's run length and sample
-#: rate are the paper's scenario, which tmopt.physics.scenario and some physics functions
-#: also default to, until the stiffness problem takes them from the scenario.
-OTHER_IDEAS = {"seed", "duration", "sample_rate"}
+#: ``seed`` 0 is "the first seed" everywhere. (The paper's run settings -- duration, sample
+#: rate, Eq. 18's threshold, Eq. 29's weights -- have one home each in tmopt.physics, which
+#: every signature names: tests/physics/test_paper_defaults.py.)
+OTHER_IDEAS = {"seed"}
 
 
 def _signature_defaults() -> list[tuple[str, int, str, object]]:
@@ -114,7 +114,8 @@ def test_a_variant_takes_its_base_arguments_once_and_they_are_checked():
     with pytest.raises(ConfigError, match="algorithm.wmax='ten' has the wrong type"):
         check_node("algorithm", node, "mgsaea_ipc")
     node = OmegaConf.create({"_target_": "tmopt.algorithms.mgsaea.MGSAEAIPC", "wmx": 10})
-    with pytest.raises(ConfigError, match="unknown key algorithm.wmx; allowed keys: ungrouped"):
+    with pytest.raises(ConfigError, match=r"unknown key algorithm.wmx; did you mean 'wmax'\? "
+                                          "allowed keys: ungrouped"):
         check_node("algorithm", node, "mgsaea_ipc")
     with pytest.raises(TypeError):
         MGSAEAIPC(100)  # keyword arguments only
@@ -143,3 +144,17 @@ def test_an_option_whose_class_cannot_be_imported_breaks_only_itself(tmp_path):
         constructor_node("tmopt.algorithms.nope.Nope")
     register_configs(tmp_path)  # no error at start-up: check_node names it when chosen
     assert preflight(["algorithm=nsga2", "problem=mw3", "budget=300"]) == 1
+
+
+def test_sweep_name_is_given_or_derived_from_the_overrides():
+    from tmopt.run.config import sweep_name
+
+    assert sweep_name("mine", ["seed=0,1"]) == "mine"
+    assert sweep_name("", []) == "default"
+    derived = sweep_name("", ["seed=0,1,2", "problem=mw3", "problem.n_var=4",
+                              "algorithm=nsga2,nsga3", "progress=false", "hydra/launcher=x"])
+    assert derived == "algorithm=nsga2+nsga3_problem=mw3_seed=0+1+2_problem.n_var=4"
+    assert derived == sweep_name("", ["algorithm=nsga2,nsga3", "problem.n_var=4",
+                                      "problem=mw3", "seed=0,1,2"])  # spelling order
+    long = sweep_name("", [f"problem.x{i}={i}" for i in range(40)])
+    assert len(long) == 120 and long != sweep_name("", [f"problem.x{i}={i}" for i in range(41)])

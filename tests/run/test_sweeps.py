@@ -85,7 +85,15 @@ def test_both_sweeps_through_basic_and_joblib_then_collect_lists_failed_and_inco
     (failed / "archive.h5").write_bytes(b"not an HDF5 file")
     _sweep(TABLE3, sweep)  # basic launcher
     _sweep(SCHEME_K, sweep, "local_parallel")  # joblib launcher, 2 processes
-    assert json.loads((failed / "failure.json").read_text())["error"] == "ArchiveError"
+    # an archive that cannot be read is kept aside and the run starts over (issue 20)
+    assert (failed / "archive.h5.unreadable").read_bytes() == b"not an HDF5 file"
+    assert json.loads((failed / "metrics.json").read_text())["status"] == "complete"
+    # for collect: the folder of a run that stopped on an unreadable archive, as round one
+    # left it (cli._record_failure writes failure.json; the archive stays unreadable)
+    (failed / "metrics.json").unlink()
+    (failed / "archive.h5").write_bytes(b"not an HDF5 file")
+    (failed / "failure.json").write_text(json.dumps({"error": "ArchiveError",
+                                                     "message": "archive.h5: unreadable"}))
     unfinished = sweep / _folder("algorithm=nsga2", "problem=mw1", "seed=1")
     (unfinished / "metrics.json").unlink()
 
@@ -131,13 +139,14 @@ def test_both_sweeps_through_basic_and_joblib_then_collect_lists_failed_and_inco
         "2", "1")
 
     # the same command through the other launcher (one worker: only resume/skip is checked);
-    # the finished runs are not even launched (tmopt/run/sweep_resume.py), the failed one is,
-    # to say again why it fails
+    # the finished runs are not even launched (tmopt/run/sweep_resume.py); the failed one
+    # (unreadable archive) starts over, its archive kept aside
     done = sweep / _folder("algorithm=nsga3", "problem=stiffness", "seed=0")
     done_log = (done / "tmopt.log").read_text()
     out = _sweep(TABLE3, sweep, "local_parallel", "hydra.launcher.n_jobs=1")
     assert ("tmopt sweep: 8 runs: 6 skipped (complete), 1 resumed (40 archived evaluations), "
-            "1 blocked (launched to report why), 0 started; launching 2") in out
+            "1 started; launching 2") in out
+    assert json.loads((failed / "metrics.json").read_text())["status"] == "complete"
     assert "resuming from 40" in (unfinished / "tmopt.log").read_text()
     assert (done / "tmopt.log").read_text() == done_log
 
@@ -158,3 +167,15 @@ def test_submitit_local_launcher_writes_the_same_run_folders(tmp_path):
                    "hydra.launcher.timeout_min=10")
     assert ("tmopt sweep: 2 runs: 2 skipped (complete), 0 resumed (0 archived evaluations), "
             "0 started; launching 0") in again
+
+
+def test_a_sweep_without_a_name_gets_one_from_its_overrides(tmp_path):
+    env = {**os.environ, "PYTHONUNBUFFERED": "1", "NUMBA_NUM_THREADS": "1"}
+    args = ["problem=mw3", "problem.n_var=4", "algorithm=nsga2", "algorithm.pop_size=10",
+            "budget=20", "seed=0,1", "progress=false", "plots=false"]
+    out = subprocess.run([sys.executable, "-m", "tmopt", "-m", *args], cwd=tmp_path,
+                         env=env, capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr[-3000:]
+    name = "algorithm=nsga2_budget=20_problem=mw3_seed=0+1_algorithm.pop_size=10_problem.n_var=4"
+    assert [p.name for p in (tmp_path / "multirun").iterdir()] == [name]
+    assert len(list((tmp_path / "multirun" / name).glob("*/metrics.json"))) == 2

@@ -97,7 +97,7 @@ def test_deterministic_and_global_rng_untouched(smooth3):
 
 def test_warm_start_same_quality_fewer_iterations(train_test, r2):
     (X, Y), (Xt, Yt) = train_test["ackley"]
-    warm = GPSurrogate(warm_start=True).fit(X[:250], Y[:250])
+    warm = GPSurrogate(warm_start=True, refit_every=1).fit(X[:250], Y[:250])
     warm.fit(X, Y)
     cold = GPSurrogate(warm_start=False).fit(X, Y)
     assert warm.fit_info["warm_started"] and not cold.fit_info["warm_started"]
@@ -109,7 +109,7 @@ def test_warm_start_same_quality_fewer_iterations(train_test, r2):
 def test_refit_every_keeps_hyperparameters_between_optimisations(smooth3):
     X, Y, f = smooth3
     rng = np.random.default_rng(8)
-    model = GPSurrogate(refit_every=3)
+    model = GPSurrogate(refit_every=3, refit_guard=None)
     stages, lengthscales = [], []
     for _ in range(4):
         model.fit(X, Y)
@@ -121,13 +121,84 @@ def test_refit_every_keeps_hyperparameters_between_optimisations(smooth3):
     assert torch.equal(lengthscales[0], lengthscales[1])
     assert torch.equal(lengthscales[0], lengthscales[2])
     assert not torch.equal(lengthscales[2], lengthscales[3])
-    model = GPSurrogate(refit_every=3).fit(X, Y)
+    model = GPSurrogate(refit_every=3, refit_guard=None).fit(X, Y)
     model.fit(X[:-3], Y[:-3])                            # kept hyperparameters: the GP
     mean, _ = model.predict(X[-3:])                      # is conditioned on the data given
     with torch.no_grad():
         post = model.model.posterior(torch.as_tensor(X[-3:]))
     np.testing.assert_allclose(mean, post.mean.numpy(), rtol=1e-9, atol=1e-9)
     assert model.model.train_inputs[0].shape[-2] == len(X) - 3
+
+
+def test_refit_guard_reoptimises_at_once_when_the_new_points_surprise_the_model(smooth3):
+    X, Y, f = smooth3
+    rng = np.random.default_rng(9)
+    model = GPSurrogate(refit_every=5, refit_guard=4.0).fit(X, Y)
+    assert model.fit_info["stage"] == "mll"
+    same = rng.uniform(-1, 2, size=(4, 4))                 # more of the same function
+    X, Y = np.vstack([X, same]), np.vstack([Y, f(same)])
+    model.fit(X, Y)
+    assert model.fit_info["stage"] == "kept_hypers" and model.fit_info["surprise"] < 4.0
+    jump = rng.uniform(-1, 2, size=(4, 4))                 # a step the GP has not seen
+    X, Y = np.vstack([X, jump]), np.vstack([Y, f(jump) + [0.0, 0.0, 40.0]])
+    model.fit(X, Y)
+    assert model.fit_info["stage"] == "mll" and model.fit_info["surprise"] > 4.0
+    unguarded = GPSurrogate(refit_every=5, refit_guard=None).fit(X[:-8], Y[:-8])
+    unguarded.fit(X[:-4], Y[:-4])
+    unguarded.fit(X, Y)
+    assert unguarded.fit_info["stage"] == "kept_hypers" and "surprise" not in unguarded.fit_info
+
+
+def test_the_guard_statistic_is_the_leave_one_out_error_by_brute_force(smooth3):
+    """R&W Eq. 5.12 against explicit solves without each point (same hyperparameters, same
+    standardisation): mean z^2 at the new points over mean z^2 at the others."""
+    X, Y, f = smooth3
+    model = GPSurrogate(refit_every=5, refit_guard=1e6).fit(X, Y)
+    more = np.random.default_rng(4).uniform(-1, 2, size=(5, 4))
+    X2, Y2 = np.vstack([X, more]), np.vstack([Y, f(more) + [0.3, -0.5, 0.2]])
+    model.fit(X2, Y2)
+    assert model.fit_info["stage"] == "kept_hypers"
+    c = model._caches[0]
+    new = np.arange(len(X), len(X2))
+    worst = 0.0
+    with torch.no_grad():
+        K = c.part.covar_module(c.Xn).to_dense()
+        K = K + c.part.likelihood.noise.reshape(-1, 1, 1) * torch.eye(len(X2), dtype=K.dtype)
+        y = c.part.train_targets - c.const                                  # (b, n)
+        for j in range(K.shape[0]):
+            z2 = []
+            for i in range(len(X2)):
+                rest = np.setdiff1d(np.arange(len(X2)), [i])
+                Kr, k = K[j][rest][:, rest], K[j][rest, i]
+                w = torch.linalg.solve(Kr, k)
+                mu, var = w @ y[j, rest], K[j, i, i] - k @ w
+                z2.append(float((y[j, i] - mu) ** 2 / var))
+            z2 = np.array(z2)
+            worst = max(worst, z2[new].mean() / np.delete(z2, new).mean())
+    assert model.fit_info["surprise"] == pytest.approx(worst, rel=1e-6)
+
+
+def test_restore_in_a_kept_cycle_continues_exactly(smooth3):
+    """A checkpoint taken between re-optimisations: the next fits (kept, guarded, then
+    re-optimised) are those of the uninterrupted object."""
+    X, Y, f = smooth3
+    more = np.random.default_rng(11).uniform(-1, 2, size=(8, 4))
+    X2, Y2 = np.vstack([X, more]), np.vstack([Y, f(more)])
+    Xq = np.random.default_rng(6).uniform(-1, 2, size=(9, 4))
+    original = GPSurrogate(refit_every=3, refit_guard=4.0).fit(X2[:40], Y2[:40])
+    original.fit(X2[:44], Y2[:44])
+    restored = GPSurrogate(refit_every=3, refit_guard=4.0).restore(
+        X2[:44], Y2[:44], original.state())
+    stages = []
+    for n in (45, 46, 47, 48):
+        original.fit(X2[:n], Y2[:n])
+        restored.fit(X2[:n], Y2[:n])
+        stages.append(original.fit_info["stage"])
+        assert restored.fit_info["stage"] == original.fit_info["stage"]
+        assert restored.fit_info.get("surprise") == original.fit_info.get("surprise")
+        for a, b in zip(original.predict(Xq), restored.predict(Xq)):
+            assert np.array_equal(a, b)
+    assert "kept_hypers" in stages and "mll" in stages
 
 
 @pytest.mark.parametrize("mode", ["per_output", "model_list"])
@@ -137,9 +208,9 @@ def test_restore_rebuilds_the_fit_and_its_warm_start_exactly(smooth3, mode):
     more = np.random.default_rng(5).uniform(-1, 2, size=(6, 4))
     X2, Y2 = np.vstack([X, more]), np.vstack([Y, f(more)])
     Xq = np.random.default_rng(6).uniform(-1, 2, size=(9, 4))
-    original = GPSurrogate(fit_mode=mode).fit(X[:30], Y[:30]).fit(X, Y)
+    original = GPSurrogate(fit_mode=mode, refit_every=1).fit(X[:30], Y[:30]).fit(X, Y)
     state = original.state()
-    restored = GPSurrogate(fit_mode=mode).restore(X, Y, state)
+    restored = GPSurrogate(fit_mode=mode, refit_every=1).restore(X, Y, state)
     for a, b in zip(original.predict(Xq), restored.predict(Xq)):
         assert np.array_equal(a, b)
     assert restored.fit_info == original.fit_info
@@ -237,6 +308,7 @@ def test_bad_data_and_unfitted_use(smooth3):
     ({"max_attempts": 0}, "max_attempts"), ({"fit_mode": "joint"}, "fit_mode"),
     ({"seed": -3}, "seed"), ({"max_iter": True}, "max_iter"),
     ({"refit_every": 0}, "refit_every"), ({"num_threads": -1}, "num_threads"),
+    ({"refit_guard": 0.0}, "refit_guard"), ({"refit_guard": float("inf")}, "refit_guard"),
 ])
 def test_bad_arguments_name_the_parameter(kwargs, name):
     with pytest.raises(ValueError, match=rf"^{name}="):

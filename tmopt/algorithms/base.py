@@ -7,7 +7,7 @@ models) happens inside ``ask``/``tell``.
 
 Subclasses implement ``_setup``, ``_infill`` (pymoo's name for proposing designs) and
 ``_advance`` (updating the state with the evaluated batch), and may override
-``initial_sample_size`` and ``info``. An algorithm whose state is costly to rebuild on
+``initial_sample_size``, ``info`` and ``summary``. An algorithm whose state is costly to rebuild on
 resume may checkpoint it (:meth:`Algorithm._write_checkpoint`, :attr:`Algorithm.resume_state`).
 Constructors check their arguments with :func:`check_int` and :func:`check_number`, whose
 messages name the algorithm, the argument, the allowed range and the value.
@@ -56,11 +56,28 @@ class Algorithm(ABC):
         self.n_evals = 0
 
     # ---- public steps ----------------------------------------------------------------
-    def setup(self, problem: ExpensiveProblem, budget: int, seed: int) -> None:
-        """Bind the problem, the real-evaluation budget and the seed; reset all state."""
+    def setup(self, problem, budget: int | None = None, seed: int | None = 0,
+              termination=None, **options) -> None:
+        """Bind the problem, the real-evaluation budget and the seed; reset all state.
+
+        ``problem`` may be any pymoo problem (wrapped by
+        :func:`tmopt.problems.pymoo_problem.as_expensive`). pymoo's ``minimize`` calls this
+        with ``termination=("n_evals", N)`` instead of ``budget`` and options ``verbose``
+        and ``outdir``, then :meth:`run` (see :mod:`tmopt.algorithms.as_pymoo`); seed None
+        draws one, as pymoo does.
+        """
+        from tmopt.algorithms.as_pymoo import budget_from, run_options
+        from tmopt.problems.pymoo_problem import as_expensive
+
+        self.user_problem = problem
+        problem = as_expensive(problem)
+        budget = budget_from(self.name, budget, termination)
+        self.run_options = run_options(self.name, options)
+        if seed is None:
+            seed = int(np.random.SeedSequence().generate_state(1)[0] % 2**31)
         self.problem = problem
-        self.budget = int(budget)
-        self.seed = int(seed)
+        self.budget = check_int(self.name, "budget", budget, 1)
+        self.seed = check_int(self.name, "seed", seed, 0)
         self.rng = np.random.default_rng(seed)
         seed_everything(seed)
         self.check_budget(problem, budget)
@@ -120,6 +137,14 @@ class Algorithm(ABC):
         self._advance(batch)
         self.n_gen += 1
 
+    def run(self):
+        """Spend the budget bound by :meth:`setup` through tmopt's runner; a pymoo
+        ``Result``. This is what pymoo's ``minimize`` calls
+        (:func:`tmopt.algorithms.as_pymoo.run_algorithm` says what the result holds)."""
+        from tmopt.algorithms.as_pymoo import run_algorithm
+
+        return run_algorithm(self)
+
     def has_next(self) -> bool:
         """False when the algorithm has nothing more to propose (budget aside)."""
         return True
@@ -140,6 +165,11 @@ class Algorithm(ABC):
         """Short state for progress lines (e.g. stage, granularity)."""
         return {}
 
+    def summary(self) -> dict:
+        """The algorithm's own course over the run, for ``metrics.json`` (JSON values only;
+        e.g. the stage MGSAEA reached and when). Empty for algorithms without one."""
+        return {}
+
     # ---- to implement ----------------------------------------------------------------
     def _setup(self) -> None:
         """Prepare state after :meth:`setup` has bound problem, budget and seed."""
@@ -151,6 +181,14 @@ class Algorithm(ABC):
     @abstractmethod
     def _advance(self, batch: EvaluatedBatch) -> None:
         """Update the state with evaluated designs."""
+
+
+def check_surrogate_factory(algorithm: str, surrogate):
+    """``surrogate`` unchanged when None or callable (a zero-argument Surrogate factory)."""
+    if surrogate is not None and not callable(surrogate):
+        raise AlgorithmConfigError(f"algorithm {algorithm}: surrogate must be a "
+                                   f"zero-argument factory, got {surrogate!r}")
+    return surrogate
 
 
 def check_int(algorithm: str, label: str, value, minimum: int) -> int:

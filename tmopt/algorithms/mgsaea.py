@@ -74,13 +74,22 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from pymoo.operators.sampling.lhs import LHS
-from scipy.spatial.distance import cdist
 
-from tmopt.algorithms.base import Algorithm, AlgorithmConfigError, check_int
+from tmopt.algorithms.base import (
+    Algorithm,
+    AlgorithmConfigError,
+    check_int,
+    check_surrogate_factory,
+)
 from tmopt.algorithms.operators.constraints import choose_granularity
 from tmopt.algorithms.operators.stage import change_rate
 from tmopt.algorithms.operators.survival import environmental_selection, spea2_fitness
-from tmopt.algorithms.operators.variation import ga_offspring, tournament, unique_rows
+from tmopt.algorithms.operators.variation import (
+    already_evaluated,
+    ga_offspring,
+    tournament,
+    unique_rows,
+)
 from tmopt.evaluation.evaluator import EvaluatedBatch
 from tmopt.metrics.indicators import constraint_violation
 from tmopt.problems.base import ConstraintGroup, ExpensiveProblem
@@ -89,8 +98,6 @@ from tmopt.surrogates.base import Surrogate
 log = logging.getLogger(__name__)
 
 SurrogateFactory = Callable[[], Surrogate]
-#: Designs closer than this (per variable, relative to the bounds) count as the same design.
-SAME_DESIGN_TOL = 1e-9
 
 
 class AlgorithmStateError(RuntimeError):
@@ -170,6 +177,24 @@ class ModelPlan:
         return P[:, :n_obj], np.maximum(P[:, n_obj:], 0.0).sum(axis=1)
 
 
+def granularity_plan(granularity: str, unsatisfied: np.ndarray, G: np.ndarray) -> ModelPlan:
+    """The stage-two plan of a granularity (TNNLS Sec. III) for the real population's
+    constraint values ``G``: "coarse" (one model of the total scaled violation, CDP),
+    "fine" (one model per constraint in ``unsatisfied``, summed violation an extra
+    objective) or "objectives" (objective models only, SPEA2; the real population
+    by CDP)."""
+    scale = violation_scale(G)
+    every = tuple(range(G.shape[1]))
+    if granularity == "coarse":
+        return ModelPlan("coarse", "cdp", every, True, "cdp", every, scale)
+    if granularity == "fine":
+        con = tuple(int(i) for i in unsatisfied)
+        return ModelPlan("fine", "fine", con, False, "fine", every, scale)
+    if granularity == "objectives":
+        return ModelPlan("objectives", "pareto", (), False, "cdp", every, scale)
+    raise ValueError(f"unknown granularity {granularity!r}")
+
+
 def rank_fitness(mode: str, F: np.ndarray, cv: np.ndarray, normalise: bool) -> np.ndarray:
     """SPEA2 fitness under one of the plan's ranking modes (PlatEMO's ``status``)."""
     if mode == "pareto":
@@ -205,10 +230,7 @@ class MGSAEA(Algorithm):
         self.crossover_eta = self._positive("crossover_eta", crossover_eta)
         self.mutation_eta = self._positive("mutation_eta", mutation_eta)
         self.normalise = bool(normalise)
-        if surrogate is not None and not callable(surrogate):
-            raise AlgorithmConfigError(f"algorithm {self.name}: surrogate must be a "
-                                       f"zero-argument factory, got {surrogate!r}")
-        self._factory = surrogate
+        self._factory = check_surrogate_factory(self.name, surrogate)
 
     # ---- argument checks ------------------------------------------------------------------
     def _positive(self, label: str, value) -> float:
@@ -228,9 +250,7 @@ class MGSAEA(Algorithm):
         self._stage_one_con = self.stage_one_indices(self.problem)
         if self.stage_one_constraints == "key" and not declares_groups(self.problem) \
                 and self.problem.n_ieq_constr > 1:
-            log.warning("%s: problem %s declares no constraint groups; constraint g1 is "
-                        "taken as the key individual's (ungrouped=first)", self.name,
-                        self.problem.name)
+            _say_fallback_once(self.name, self.problem.name)
         self._pop: _Set | None = None
         self._elite: _Set | None = None
         self._seen = np.zeros((0, self.problem.n_var))  # every design sent, failed ones too
@@ -238,6 +258,9 @@ class MGSAEA(Algorithm):
         self.stage = 1
         self.iteration = 0
         self.last_mc: float | None = None
+        self._mc_trace: list[float] = []  # mc of every iteration that measured it
+        self._switch_iteration: int | None = None
+        self._granularities: list[str] = []  # "stage<k>:<granularity>" of every iteration
         self._plan: ModelPlan | None = None
         self._models: dict[tuple, Surrogate] = {}
         self._surrogate = self._factory or default_surrogate_factory()
@@ -258,6 +281,26 @@ class MGSAEA(Algorithm):
             out["mc"] = f"{self.last_mc:.3g}"
         return out
 
+    def summary(self) -> dict:
+        """Stage reached, the iteration whose models were the first of stage two (None:
+        never), and the change rate mc (Eq. 20) over the iterations that measured it.
+
+        ``stage_two_possible`` says whether the run had more than ``gap`` iterations, the
+        least before mc can be measured at all. ``granularity_iterations`` counts the
+        iterations of each plan, e.g. ``{"stage1:key": 38, "stage2:coarse": 2}``.
+        """
+        trace = np.asarray(self._mc_trace, dtype=float)
+        mc = None if not len(trace) else {
+            "n": int(len(trace)), "first": float(trace[0]), "last": float(trace[-1]),
+            "min": float(trace.min()), "median": float(np.median(trace)),
+            "max": float(trace.max())}
+        labels, counts = np.unique(self._granularities, return_counts=True)
+        return {"stage_reached": int(self.stage), "switch_iteration": self._switch_iteration,
+                "iterations": int(self.iteration), "gap": self.gap,
+                "threshold": self.threshold, "stage_two_possible": self.iteration > self.gap,
+                "mc": mc, "granularity_iterations": {str(k): int(v)
+                                                     for k, v in zip(labels, counts)}}
+
     # ---- ask --------------------------------------------------------------------------------
     def _infill(self) -> np.ndarray:
         if self._pop is None:
@@ -265,6 +308,7 @@ class MGSAEA(Algorithm):
             return self._remember(X)
         self._update_stage()
         self._plan = self._make_plan()
+        self._granularities.append(f"stage{self.stage}:{self._plan.granularity}")
         model = self._fit(self._plan)
         X, P = self._surrogate_search(self._plan, model)
         self.iteration += 1
@@ -281,28 +325,23 @@ class MGSAEA(Algorithm):
         if self.stage == 1 and len(self._ideal) > self.gap:
             self.last_mc = change_rate(self._ideal[-1], self._ideal[-1 - self.gap],
                                        sigma=self.sigma)
+            self._mc_trace.append(self.last_mc)
             if self.last_mc <= self.threshold:
                 self.stage = 2
+                self._switch_iteration = self.iteration + 1
                 log.info("%s: stage two after %d iterations (mc=%.3g <= %.3g)", self.name,
                          self.iteration, self.last_mc, self.threshold)
 
     def _make_plan(self) -> ModelPlan:
         G = self._pop.G
-        scale = violation_scale(G)
-        every = tuple(range(G.shape[1]))
         if self.stage == 1:
+            scale = violation_scale(G)
             con = self._stage_one_con
             label = {"none": "objectives", "key": "key", "all": "all"}[
                 self.stage_one_constraints]
             mode = "cdp" if con else "pareto"
             return ModelPlan(label, mode, con, False, mode, con, scale)
-        granularity, unsatisfied = choose_granularity(G)
-        if granularity == "coarse":
-            return ModelPlan("coarse", "cdp", every, True, "cdp", every, scale)
-        if granularity == "fine":
-            con = tuple(int(i) for i in unsatisfied)
-            return ModelPlan("fine", "fine", con, False, "fine", every, scale)
-        return ModelPlan("objectives", "pareto", (), False, "cdp", every, scale)
+        return granularity_plan(*choose_granularity(G), G)
 
     def _fit(self, plan: ModelPlan) -> Surrogate:
         """Fit one (multi-output) surrogate of every modelled output at once.
@@ -373,9 +412,7 @@ class MGSAEA(Algorithm):
         return X[keep]
 
     def _already_seen(self, X: np.ndarray) -> np.ndarray:
-        span = self.problem.xu - self.problem.xl
-        d = cdist(X / span, self._seen / span, metric="chebyshev")
-        return (d <= SAME_DESIGN_TOL).any(axis=1)
+        return already_evaluated(X, self._seen, self.problem.xl, self.problem.xu)
 
     # ---- tell -------------------------------------------------------------------------------
     def _advance(self, batch: EvaluatedBatch) -> None:
@@ -479,6 +516,20 @@ class MGSAEAStar(MGSAEA):
 
     def stage_one_indices(self, problem: ExpensiveProblem) -> tuple[int, ...]:
         return tuple(range(int(problem.n_ieq_constr)))
+
+
+_FALLBACK_SAID: set[tuple[str, str]] = set()
+
+
+def _say_fallback_once(algorithm: str, problem: str) -> None:
+    """Warn once per process and problem (not on every run of a sweep) what IPC does on
+    a problem without constraint groups; every benchmark suite problem is one."""
+    level = logging.DEBUG if (algorithm, problem) in _FALLBACK_SAID else logging.WARNING
+    _FALLBACK_SAID.add((algorithm, problem))
+    log.log(level, "%s: problem %s declares no constraint groups, so its first constraint "
+            "(g1) is taken as the key individual's (algorithm.ungrouped=first, the same as "
+            "problem.constraint_groups=split; ungrouped=error refuses instead)",
+            algorithm, problem)
 
 
 def declares_groups(problem: ExpensiveProblem) -> bool:

@@ -4,10 +4,14 @@ pymoo's own ask/tell loop is used unchanged: ``ask`` returns the offspring popul
 the runner evaluates it (counted and archived), and the values are written back into the
 population with pymoo's :class:`~pymoo.problems.static.StaticProblem` so that pymoo
 computes constraint violation and feasibility exactly as it would itself.
+:func:`as_tmopt_algorithm` wraps any pymoo algorithm object the same way, so
+``run_optimisation(problem, pymoo_algorithm, budget=...)`` works; the other direction
+(tmopt algorithms under pymoo's ``minimize``) is :mod:`tmopt.algorithms.as_pymoo`.
 """
 
 from __future__ import annotations
 
+import copy
 from abc import abstractmethod
 
 import numpy as np
@@ -48,3 +52,30 @@ class PymooAdapter(Algorithm):
 
     def has_next(self) -> bool:
         return not self._algorithm.termination.has_terminated()
+
+
+class WrappedPymooAlgorithm(PymooAdapter):
+    """Any pymoo algorithm object, run by tmopt (budget, archive, resume, outputs).
+
+    Args:
+        algorithm: A pymoo algorithm, not yet set up; every run works on a copy of it.
+    """
+
+    def __init__(self, algorithm: PymooAlgorithm) -> None:
+        self.name = type(algorithm).__name__.lower()
+        super().__init__(pop_size=int(getattr(algorithm, "pop_size", None) or 2))
+        self.template = algorithm
+
+    def build(self) -> PymooAlgorithm:
+        return copy.deepcopy(self.template)
+
+
+def as_tmopt_algorithm(algorithm) -> Algorithm:
+    """``algorithm`` itself if it is a tmopt algorithm, else a pymoo algorithm wrapped in
+    :class:`WrappedPymooAlgorithm`; anything else is a one-line :class:`TypeError`."""
+    if isinstance(algorithm, Algorithm):
+        return algorithm
+    if isinstance(algorithm, PymooAlgorithm):
+        return WrappedPymooAlgorithm(algorithm)
+    raise TypeError(f"algorithm must be a tmopt or pymoo algorithm, got "
+                    f"{type(algorithm).__name__}")

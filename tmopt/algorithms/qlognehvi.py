@@ -14,13 +14,17 @@ Implements
     BoTorch's ``qLogNoisyExpectedHypervolumeImprovement`` and ``optimize_acqf`` do the
     work; nothing of the acquisition is written here.
 
-Parameters (keyword arguments; defaults: the constructor's signature):
+Parameters (keyword arguments; defaults: the constructor's signature). The defaults are the
+fast settings of docs/speed.md (~10x less CPU per run); ``algorithm=qlognehvi_reference``
+pins the earlier ones, which reproduce earlier runs bit for bit:
     n_init: size of the scrambled Sobol initial sample; None = 2 (D + 1), BoTorch's
         tutorial rule (11 D - 1 would spend 197 of 300 evaluations at D = 18).
     q: designs per iteration (batch size), the same as MGSAEA's mu.
     num_restarts, raw_samples: multi-start L-BFGS-B of the acquisition, from
-        the best of ``raw_samples`` Sobol points (modest so an iteration fits two cores).
-    acq_maxiter: L-BFGS-B iterations per restart.
+        the best of ``raw_samples`` Sobol points.
+    acq_maxiter: L-BFGS-B iterations per restart. Measured on the stiffness problem at 300
+        designs: the fast setting's batch has 0.96x the joint expected improvement of the
+        earlier 128 raw samples x 100 iterations for 0.3x its cost (docs/speed.md).
     mc_samples: quasi-Monte-Carlo samples of the joint posterior (seeded Sobol).
     ref_offset: reference point = nadir + ref_offset in objectives normalised to
         [0, 1] over the data (rule below).
@@ -31,15 +35,18 @@ Parameters (keyword arguments; defaults: the constructor's signature):
         ``experiments/qlognehvi_reference_point.py``.
     eta: temperature of the (fat-tailed) sigmoid feasibility weight, applied
         to constraints divided by their largest observed magnitude.
-    gp_max_iter: L-BFGS-B iterations per GP fit (warm-started from the last fit).
+    gp_max_iter: L-BFGS-B iterations per GP hyperparameter fit (warm-started from the last
+        fit, so capped fits continue where the last one stopped).
     kernel: GP kernel, "rbf" or "matern52" (:class:`tmopt.surrogates.gp.GPSurrogate`).
     max_baseline: at most this many observed designs as qLogNEHVI's baseline
         X_baseline: BoTorch's own pruning keeps every design with a positive posterior
         probability of being Pareto optimal (~230 of 530 on the stiffness problem, where
-        the GPs are unsure), and the joint posterior over that baseline is nearly all of
-        an iteration's cost (~n_baseline x n^2 per acquisition evaluation); with a cap,
-        BoTorch's ``prune_inferior_points_multi_objective`` keeps the ``max_baseline``
-        most probable ones instead. None = BoTorch's default (no cap).
+        the GPs are unsure). Through GPyTorch the joint posterior over that baseline was
+        nearly all of an iteration's cost (~n_baseline x n^2 per acquisition evaluation);
+        with ``cached_posterior`` it no longer is, so the cap (docs/results.md's Table 3
+        used 64) is only a modelling choice now. With a cap, BoTorch's
+        ``prune_inferior_points_multi_objective`` keeps the ``max_baseline`` most probable
+        ones. None = BoTorch's default (no cap).
     max_iter: BO iterations (of q evaluations) after the initial sample, after which
         the algorithm stops proposing; None = until the budget is spent. The GPs are exact,
         so budgets of thousands of evaluations (the ``paper`` preset's 10 000) need a cap:
@@ -47,6 +54,23 @@ Parameters (keyword arguments; defaults: the constructor's signature):
     threads: torch intra-op threads while fitting and optimising (restored afterwards);
         None = torch's setting. The tensors here are small (a few hundred points), so
         one thread is faster than the OpenMP hand-off, by ~6x on a loaded two-core machine.
+    cached_posterior: the acquisition sees the GPs through
+        :class:`tmopt.surrogates.gp_posterior.CachedJointGP`, the same exact posterior
+        that reuses the baseline's rows instead of recomputing the joint posterior over
+        baseline and candidate at every evaluation (tested equal to BoTorch's values and
+        gradients).
+    init_batch_limit: raw samples scored per call when choosing the restarts (None =
+        num_restarts at a time, 32 calls at 128 raw samples; one call scores the same).
+    refit_every, refit_guard: the GP hyperparameters are
+        re-optimised at every ``refit_every``-th iteration; in between the GPs keep them
+        and are conditioned on the new designs (one Cholesky), unless the new designs'
+        mean squared standardised leave-one-out error exceeds ``refit_guard`` for some
+        output (:class:`GPSurrogate`'s guard), which re-optimises at once.
+    prune_samples: posterior samples (None = BoTorch's 2048) with which the
+        baseline is pruned to the designs with a positive probability of being Pareto
+        optimal (``prune_inferior_points_multi_objective``); sampling all n designs
+        jointly is O(samples x n^2) per output: 1.0 s CPU at 500 designs with 2048
+        samples, 0.32 s with 512, baselines of 11-12 designs either way (docs/speed.md).
 
 One iteration (every design evaluated for real so far, failed ones left out):
 
@@ -55,7 +79,8 @@ One iteration (every design evaluated for real so far, failed ones left out):
    BoTorch maximises; constraints to g~_k = g_k / max |g_k| (g~ <= 0 still means
    feasible, and the sigmoid's eta acts on a unit scale whatever the physical units).
 2. One GP per output (BoTorch ``SingleTaskGP`` batched over the M + K outputs, fitted per
-   output with warm start; :class:`tmopt.surrogates.gp.GPSurrogate`), float64.
+   output with warm start, re-optimised every ``refit_every`` iterations;
+   :class:`tmopt.surrogates.gp.GPSurrogate`), float64.
 3. Reference point, in minimisation terms: r = max_{p in P} f~_p + ref_offset, where P is
    every observation, i.e. r = 1 + ref_offset (``ref_point="feasible"``: the feasible
    observations; ``"front"``: their non-dominated set; both fall back to all observations
@@ -99,6 +124,7 @@ from tmopt.algorithms.base import Algorithm, AlgorithmConfigError, check_int, ch
 from tmopt.evaluation.evaluator import EvaluatedBatch
 from tmopt.problems.base import ExpensiveProblem
 from tmopt.surrogates.gp import KERNELS, GPSurrogate
+from tmopt.surrogates.gp_posterior import CachedJointGP
 
 log = logging.getLogger(__name__)
 
@@ -111,11 +137,13 @@ class QLogNEHVI(Algorithm):
     name = "qlognehvi"
 
     def __init__(self, *, n_init: int | None = None, q: int = 5, num_restarts: int = 4,
-                 raw_samples: int = 128, acq_maxiter: int = 100, mc_samples: int = 64,
+                 raw_samples: int = 256, acq_maxiter: int = 30, mc_samples: int = 64,
                  ref_offset: float = 0.1, ref_point: str = "all",
-                 eta: float = 1e-3, gp_max_iter: int = 200, kernel: str = "rbf",
+                 eta: float = 1e-3, gp_max_iter: int = 50, kernel: str = "rbf",
                  max_baseline: int | None = None, max_iter: int | None = None,
-                 threads: int | None = 1) -> None:
+                 threads: int | None = 1, cached_posterior: bool = True,
+                 init_batch_limit: int | None = 256, refit_every: int = 5,
+                 refit_guard: float | None = 4.0, prune_samples: int | None = 512) -> None:
         n = self.name
         self.q = check_int(n, "q", q, 1)
         super().__init__(pop_size=max(self.q, 2))  # the batch is all the "population" it has
@@ -139,6 +167,14 @@ class QLogNEHVI(Algorithm):
             n, "max_baseline", max_baseline, 1)
         self.max_iter = None if max_iter is None else check_int(n, "max_iter", max_iter, 0)
         self.threads = None if threads is None else check_int(n, "threads", threads, 1)
+        self.cached_posterior = bool(cached_posterior)
+        self.init_batch_limit = None if init_batch_limit is None else check_int(
+            n, "init_batch_limit", init_batch_limit, 1)
+        self.refit_every = check_int(n, "refit_every", refit_every, 1)
+        self.refit_guard = None if refit_guard is None else check_number(
+            n, "refit_guard", refit_guard, 0.0, low_open=True)
+        self.prune_samples = None if prune_samples is None else check_int(
+            n, "prune_samples", prune_samples, 1)
 
     # ---- framework hooks --------------------------------------------------------------------
     def initial_sample_size(self, problem: ExpensiveProblem) -> int:
@@ -154,9 +190,28 @@ class QLogNEHVI(Algorithm):
         self.F = np.zeros((0, p.n_obj))
         self.G = np.zeros((0, p.n_ieq_constr))
         self.gp = GPSurrogate(kernel=self.kernel, max_iter=self.gp_max_iter, warm_start=True,
+                              refit_every=self.refit_every, refit_guard=self.refit_guard,
                               rbf_fallback=False, seed=self.seed)
         self.iteration = 0
         self.timing: dict[str, float] = {}
+        minutes = self.expected_minutes()
+        if minutes >= LONG_RUN_MINUTES:  # say so before a long run starts
+            log.warning("%s: %d evaluations at D = %d: expect roughly %.0f min of one core "
+                        "for the GP fits and acquisitions (docs/speed.md); one progress "
+                        "line per iteration follows", self.name, self.budget, p.n_var, minutes)
+
+    def expected_minutes(self) -> float:
+        """Rough CPU minutes of this run's BO iterations on one core of the benchmark
+        machine: the per-iteration costs that ``experiments/bench_speed.py`` measured on
+        the stiffness problem (D = 18, 6 GP outputs), interpolated at each iteration's
+        number of designs; other problems differ by their dimension and outputs."""
+        table = COST_DEFAULT if self.cached_posterior else COST_REFERENCE
+        n0 = self.initial_sample_size(self.problem)
+        sizes = np.arange(n0, self.budget, self.q)
+        if self.max_iter is not None:
+            sizes = sizes[: self.max_iter]
+        xs = sorted(table)
+        return float(np.interp(sizes, xs, [table[x] for x in xs]).sum()) / 60.0
 
     def has_next(self) -> bool:
         """False once ``max_iter`` BO iterations followed the initial sample."""
@@ -165,6 +220,11 @@ class QLogNEHVI(Algorithm):
     def info(self) -> dict:
         out: dict = {"iteration": self.iteration}
         out.update({k: f"{v:.1f}s" for k, v in self.timing.items()})
+        fit = getattr(self, "gp", None) and self.gp.fit_info
+        if fit:  # how the GPs were made: optimised ("mll"...) or kept, and the guard's value
+            out["gp"] = fit.get("stage")
+            if "surprise" in fit:
+                out["surprise"] = f"{fit['surprise']:.2f}"
         return out
 
     # ---- ask ----------------------------------------------------------------------------------
@@ -207,7 +267,8 @@ class QLogNEHVI(Algorithm):
         if not maximise:
             self.timing["acq"] = 0.0
             return None
-        model = self.gp.model
+        # The same exact posterior; CachedJointGP only skips recomputing the baseline rows
+        model = CachedJointGP(self.gp) if self.cached_posterior else self.gp.model
         m, k = self.problem.n_obj, self.problem.n_ieq_constr
         with torch.random.fork_rng(), warnings.catch_warnings():
             torch.manual_seed(seed)  # Boltzmann restart choice and baseline pruning
@@ -216,22 +277,27 @@ class QLogNEHVI(Algorithm):
             constraints = [_column(m + j) for j in range(k)] or None
             baseline = torch.as_tensor(self.U, dtype=_DTYPE)
             capped = self.max_baseline is not None and len(baseline) > self.max_baseline
-            if capped:  # the max_baseline designs most likely Pareto optimal (BoTorch)
+            prune_here = capped or self.prune_samples is not None
+            if prune_here:  # else inside the acquisition, BoTorch's defaults (the same call)
+                options = {} if self.prune_samples is None else {
+                    "num_samples": self.prune_samples}
+                if capped:  # the max_baseline designs most likely Pareto optimal
+                    options["max_frac"] = (self.max_baseline - 0.5) / len(baseline)  # ceil
                 baseline = prune_inferior_points_multi_objective(
                     model, baseline, ref_point=torch.as_tensor(ref, dtype=_DTYPE),
-                    objective=objective, constraints=constraints,
-                    max_frac=(self.max_baseline - 0.5) / len(baseline))  # ceil -> the cap
+                    objective=objective, constraints=constraints, **options)
             acq = qLogNoisyExpectedHypervolumeImprovement(
                 model=model, ref_point=ref.tolist(), X_baseline=baseline,
                 sampler=SobolQMCNormalSampler(torch.Size([self.mc_samples]), seed=seed),
                 objective=objective, constraints=constraints,
-                eta=self.eta, prune_baseline=not capped)
+                eta=self.eta, prune_baseline=not prune_here)
             bounds = torch.stack([torch.zeros(self.problem.n_var, dtype=_DTYPE),
                                   torch.ones(self.problem.n_var, dtype=_DTYPE)])
             candidates, _ = optimize_acqf(
                 acq, bounds=bounds, q=self.q, num_restarts=self.num_restarts,
                 raw_samples=self.raw_samples, sequential=True,
                 options={"batch_limit": self.num_restarts, "maxiter": self.acq_maxiter,
+                         "init_batch_limit": self.init_batch_limit or self.num_restarts,
                          "seed": seed})
         self.timing["acq"] = time.perf_counter() - start
         return np.clip(candidates.detach().numpy(), 0.0, 1.0)
@@ -277,6 +343,14 @@ class QLogNEHVI(Algorithm):
                 f"algorithm {self.name}: only {len(self.U)} of {self.n_evals} designs "
                 f"evaluated without failure on problem {p.name}; the GPs need at least 2")
 
+
+#: A run expected to take longer (CPU minutes) says so when it starts.
+LONG_RUN_MINUTES = 5.0
+#: CPU seconds per iteration at n designs (stiffness problem, D = 18; docs/speed.md):
+#: the default settings (experiments/bench_speed.py) and the reference preset (Table 3's
+#: runs, docs/results.md "qLogNEHVI's cost").
+COST_DEFAULT = {100: 3.0, 300: 4.5, 500: 8.0, 697: 12.0}
+COST_REFERENCE = {50: 5.0, 200: 15.0, 300: 60.0, 500: 240.0, 697: 420.0}
 
 #: Where the reference point's nadir is taken (see :func:`reference_nadir`).
 REFERENCE_RULES = ("feasible", "front", "all")

@@ -13,14 +13,21 @@ second recording will give are predicted from
   with the identified model (``tmopt.physics.information.noise_free``), its columns
   built by the very code of the diagnosis (``nominal_equation_columns`` and each effect's
   :meth:`~tmopt.mismatch.effects.base.Effect.regressors`), and
-* the noise level estimated from the recording: the diagnosis' spatial equation-noise
-  model (:class:`~tmopt.mismatch.noise_model.SpatialNoise`, white or white + red, defined
-  per sample so any length) and its kinematic spectra
-  (:class:`~tmopt.mismatch.noise_model.SpectralNoise`, re-gridded to the new length).
+* the noise level estimated from the recording: the diagnosis' own fitted noise models
+  (:class:`~tmopt.mismatch.noise_model.NoiseModel`, a smooth cross-spectrum per group,
+  a density in frequency, so it applies to any length), laid out on the planned run's
+  segments (:meth:`~tmopt.mismatch.noise_model.NoiseModel.relayout`) and applied by its
+  own :meth:`~tmopt.mismatch.noise_model.NoiseModel.whiten` -- the whitening the
+  diagnosis will apply to the second recording.
 
 The information matrix of the whitened, extended regression is ``X_w' X_w`` (Fisher
-information of a Gaussian linear model with unit-variance whitened noise; Fedorov,
-*Theory of Optimal Experiments*, 1972), its inverse the predicted covariance.
+information of a Gaussian linear model with white whitened noise; Fedorov, *Theory of
+Optimal Experiments*, 1972).  The predicted covariance is the diagnosis' own formula at
+the whitened noise's expected variance ``v(t)`` (:meth:`NoiseModel.whitened_variance`:
+the square of each segment's taper, since whitening a tapered segment gives tapered
+white noise): ``mean(v) (X_w'X_w)^-1`` for GLS (``fit.solve``: ``s^2 = RSS/(n - p)``),
+and ``(Z'X)^-1 Z' diag(v) Z (X'Z)^-1`` for IV (``fit.solve_iv``: White's
+heteroscedasticity-consistent form at ``E r^2 = v``).
 """
 
 from __future__ import annotations
@@ -32,7 +39,7 @@ import numpy as np
 
 from tmopt.mismatch.effects import EFFECTS, Candidate
 from tmopt.mismatch.fit import Column, Data, nominal_equation_columns
-from tmopt.mismatch.noise_model import SpatialNoise, SpectralNoise, taper
+from tmopt.mismatch.noise_model import NoiseModel
 from tmopt.physics.recording import AXES
 
 __all__ = ["Target", "NoiseLevel", "Prediction", "predict", "candidate_for"]
@@ -58,21 +65,14 @@ class Target:
 
 @dataclass
 class NoiseLevel:
-    """Noise models estimated from the recording (diagnosis' final state)."""
+    """Noise models estimated from the recording (the diagnosis' final state)."""
 
-    equation: SpatialNoise
-    kinematic: SpectralNoise
+    equation: NoiseModel
+    kinematic: NoiseModel
 
-    def kinematic_for(self, m: int) -> SpectralNoise:
-        """The kinematic spectra on the rfft grid of length-m series (linear
-        interpolation in cycles/sample: the PSD is a density, independent of the length)."""
-        k = self.kinematic
-        if m == k.m:
-            return k
-        f_old = np.fft.rfftfreq(k.m)
-        f_new = np.fft.rfftfreq(m)
-        psd = np.array([np.interp(f_new, f_old, p) for p in k.psd])
-        return SpectralNoise(psd, m, taper(m))
+    def for_data(self, data: Data) -> tuple[NoiseModel, NoiseModel]:
+        """Both models on the segments of ``data`` (equation, kinematic layouts)."""
+        return self.equation.relayout(data.layout), self.kinematic.relayout(data.kin_layout)
 
 
 @dataclass
@@ -174,8 +174,9 @@ def predict(data: Data, basis: np.ndarray, targets: list[Target], noise: NoiseLe
             kin_keys.append((t, len(cand.columns)))
     se: dict[str, float] = {}
     corr: dict[str, tuple[float, str]] = {}
-    x = _whitened(eq_cols, noise.equation.whiten)
-    inv = _inverse(x)
+    eq_noise, kin_noise = noise.for_data(data)
+    x = _whitened(eq_cols, eq_noise.whiten)
+    inv = _inverse(x) * _whitened_mean_variance(eq_noise)
     for j, name in enumerate(NOMINAL):
         se[name] = _sd(inv[j, j])
     j = len(NOMINAL)
@@ -186,8 +187,7 @@ def predict(data: Data, basis: np.ndarray, targets: list[Target], noise: NoiseLe
         corr[t.key] = (float(abs(c[k])), NOMINAL[k])
         j += width
     if kin_cols:
-        kn = noise.kinematic_for(kin_cols[0].values.shape[1])
-        kinv = _iv_covariance(kin_cols, kn.whiten)
+        kinv = _iv_covariance(kin_cols, kin_noise)
         j = 0
         for t, width in kin_keys:
             se[t.key] = _combined(kinv[j : j + width, j : j + width])
@@ -196,18 +196,26 @@ def predict(data: Data, basis: np.ndarray, targets: list[Target], noise: NoiseLe
     return Prediction(se, corr)
 
 
-def _iv_covariance(cols: list[Column], whiten) -> np.ndarray:
-    """``(Z'X)^-1 Z'Z (X'Z)^-1`` of whitened columns X and instruments Z (the diagnosis'
-    ``solve_iv`` at unit whitened noise): only the tone part of a regressor informs."""
-    x = _whitened(cols, whiten)
+def _whitened_mean_variance(noise: NoiseModel) -> float:
+    """``E s^2`` of the diagnosis' GLS (``RSS/(n - p)``) when the model holds: the mean
+    expected variance of the whitened noise (the fit removes p samples' worth of it)."""
+    return float(np.mean(noise.whitened_variance()))
+
+
+def _iv_covariance(cols: list[Column], noise: NoiseModel) -> np.ndarray:
+    """``(Z'X)^-1 Z' diag(v) Z (X'Z)^-1`` of whitened columns X and instruments Z, ``v``
+    the whitened noise's expected variance (the diagnosis' ``solve_iv`` with ``r^2`` at
+    its expectation): only the tone part of a regressor informs."""
+    x = _whitened(cols, noise.whiten)
     z = _whitened([Column(c.name, c.values if c.instrument is None else c.instrument)
-                   for c in cols], whiten)  # fmt: skip
+                   for c in cols], noise.whiten)  # fmt: skip
+    v = np.tile(noise.whitened_variance(), noise.channels)
     sx, sz = np.sqrt(np.sum(x**2, axis=0)), np.sqrt(np.sum(z**2, axis=0))
     dead = (sx == 0) | (sz == 0)
     sx[sx == 0], sz[sz == 0] = 1.0, 1.0
     xs, zs = x / sx, z / sz
     ainv = np.linalg.pinv(zs.T @ xs)
-    cov = ainv @ (zs.T @ zs) @ ainv.T / np.outer(sx, sx)
+    cov = ainv @ ((zs * v[:, None]).T @ zs) @ ainv.T / np.outer(sx, sx)
     cov[dead, :] = np.inf
     cov[:, dead] = np.inf
     return cov

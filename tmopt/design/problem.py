@@ -32,6 +32,7 @@ import numpy as np
 
 from tmopt.design.information import NoiseLevel, Prediction, Target, predict
 from tmopt.mismatch.fit import data_from_result, null_basis
+from tmopt.physics.control import PAPER_RATE
 from tmopt.physics.geometry import Geometry
 from tmopt.physics.information import noise_free
 from tmopt.physics.recording import AXES
@@ -146,7 +147,8 @@ class DesignProblem(ExpensiveProblem):
             defaults, :class:`tmopt.physics.scenario.Settings`).
     """
 
-    def __init__(self, targets: Sequence[Target], noise: NoiseLevel, sample_rate: float = 10.0,
+    def __init__(self, targets: Sequence[Target], noise: NoiseLevel,
+                 sample_rate: float = PAPER_RATE,
                  geometry: Geometry | None = None,
                  stiffness: tuple[float, float, float, float] = (1e-7, 1e-7, 1e-7, 1e-7),
                  bias: tuple[float, float, float, float] = (1e-10, 1e-10, 1e-10, 1e-10),

@@ -15,6 +15,9 @@ Every real evaluation of a run goes through one :class:`Evaluator`. It
   deterministic under a seed, they ask for exactly the archived designs again, and the
   resumed run ends with the same result as an uninterrupted one. A design that differs
   from the archived one means the archive belongs to another experiment: an error.
+  Rows that failed their checksum (``damaged``) are not trusted: their batch is evaluated
+  again for real and the replay goes on behind it while the algorithm still asks for the
+  archived designs (docs/decisions.md, "Archive checksums").
 """
 
 from __future__ import annotations
@@ -63,6 +66,8 @@ class Evaluator:
         budget: Maximum number of real evaluations (>= 1).
         archive: Where to persist evaluations (None: keep in memory only).
         replay: Evaluations of an interrupted run to answer from before calling the problem.
+        damaged: ``(start, stop)`` row ranges of ``replay`` that failed their checksums;
+            a batch touching them is evaluated again for real.
         seed: Recorded with every evaluation (problems with noise use their own seed).
         time_limit: Seconds allowed per design (None: no limit). With a limit, evaluations
             run in a worker process (:mod:`tmopt.evaluation.isolation`); a design that
@@ -72,7 +77,7 @@ class Evaluator:
     def __init__(self, problem: ExpensiveProblem, budget: int,
                  archive: EvaluationArchive | None = None,
                  replay: ArchiveData | None = None, seed: int = 0,
-                 time_limit: float | None = None) -> None:
+                 time_limit: float | None = None, damaged=()) -> None:
         if isinstance(budget, bool) or not isinstance(budget, (int, np.integer)) or budget < 1:
             raise ValueError(f"budget must be an integer >= 1, got {budget!r}")
         self.problem = problem
@@ -82,6 +87,10 @@ class Evaluator:
             "", problem.n_var, problem.n_obj, problem.n_ieq_constr)
         self._persist = archive is not None
         self._replay = replay
+        self._untrusted = np.zeros(0 if replay is None else len(replay), dtype=bool)
+        for start, stop in damaged:
+            self._untrusted[start:stop] = True
+        self.n_reevaluated = 0  # damaged archive rows evaluated again
         self.n_batches = 0
         self._isolated = IsolatedProblem(problem, time_limit) if time_limit else None
         if replay is not None and len(replay) > self.budget:
@@ -108,7 +117,8 @@ class Evaluator:
         proposal was computed (only on the seeded draws and the evaluated designs) may
         propose these instead of recomputing them (:meth:`Algorithm.replayed`).
         """
-        if n < 1 or self.n_replayed_left < n:
+        if n < 1 or self.n_replayed_left < n \
+                or self._untrusted[self.n_evals:self.n_evals + n].any():
             return None
         return self._replay.rows(self.n_evals, self.n_evals + n).X.copy()
 
@@ -148,8 +158,20 @@ class Evaluator:
                 f"resume: the algorithm asked for a batch of {len(X)} at evaluation {start}, "
                 f"but the archive ends {self.n_replayed_left} evaluations later mid-batch; "
                 "it was written by a different algorithm configuration")
-        rows = self._replay.rows(start, start + len(X))
+        stop = start + len(X)
+        if self._untrusted[start:stop].any():
+            log.warning("resume: archive rows %d-%d failed their checksum; evaluating this "
+                        "batch again", start, stop - 1)
+            self.n_reevaluated += len(X)
+            return self._evaluate_for_real(X)
+        rows = self._replay.rows(start, stop)
         if not np.array_equal(rows.X, X):
+            if self.n_reevaluated:  # the re-evaluated values differ from the lost ones
+                log.warning("resume: after re-evaluating damaged rows the algorithm asks for "
+                            "other designs at evaluation %d; the %d archived rows from there "
+                            "on are dropped and evaluated anew", start, len(self._replay) - start)
+                self._replay = self._replay.rows(0, start)
+                return self._evaluate_for_real(X)
             raise ArchiveError(
                 f"resume: the designs asked for at evaluation {start} differ from the "
                 "archived ones, so the archive belongs to a different configuration or seed")
@@ -173,6 +195,13 @@ class Evaluator:
                            seed=np.full(len(X), self.seed, dtype=np.int64),
                            wall_time=np.full(len(X), wall), batch=np.zeros(len(X), np.int64),
                            noise_seeds=noise)
+
+    def flush(self, rewrite: bool = False) -> None:
+        """Write the archive if this run repaired rows that the file still holds damaged
+        (a replay that ends the run never reaches the first real batch that would), or
+        when ``rewrite`` asks (a round-one archive gains its checksums)."""
+        if self._persist and (self.n_reevaluated or rewrite) and self.n_replayed_left == 0:
+            self.archive.save()
 
     def close(self) -> None:
         """Stop the evaluation worker, if any."""

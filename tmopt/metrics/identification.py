@@ -13,9 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from tmopt.physics import objectives as _obj
-
-DEFAULT_WEIGHT1 = 1.0 / 60.0  # 1/s: one minute of convergence time counts 1
-DEFAULT_WEIGHT2 = 1.0e10      # s^2: an RMSE of 1e-10 s^-2 counts 1
+from tmopt.physics.control import PAPER_RATE
 
 
 def _check_weight(label: str, value: float) -> float:
@@ -24,15 +22,15 @@ def _check_weight(label: str, value: float) -> float:
     return float(value)
 
 
-def metric_m(obj1, obj2, weight1: float = DEFAULT_WEIGHT1,
-             weight2: float = DEFAULT_WEIGHT2) -> np.ndarray | float:
+def metric_m(obj1, obj2, weight1: float = _obj.M_WEIGHTS[0],
+             weight2: float = _obj.M_WEIGHTS[1]) -> np.ndarray | float:
     """Paper Eq. 29: ``M = weight1 * obj1 + weight2 * obj2``.
 
     Args:
         obj1: Convergence time(s) in s (Eq. 18), scalar or array.
         obj2: Convergence accuracy (RMSE, Eq. 19) in s^-2, same shape as ``obj1``.
-        weight1: Weight of the time (default 1/60 per s).
-        weight2: Weight of the accuracy (default 1e10 s^2).
+        weight1: Weight of the time [s^-1] (default: Eq. 29's, 1/60).
+        weight2: Weight of the accuracy [s^2] (default: Eq. 29's, 1e10).
 
     Returns:
         M with the shape of the inputs (a float for scalars).
@@ -47,8 +45,8 @@ def metric_m(obj1, obj2, weight1: float = DEFAULT_WEIGHT1,
 
 
 def metric_m_at_threshold(theta_hat, theta_true: float, eps: float,
-                          sample_rate: float = 10.0, weight1: float = DEFAULT_WEIGHT1,
-                          weight2: float = DEFAULT_WEIGHT2, theta0: float = 0.0) -> dict:
+                          sample_rate: float = PAPER_RATE, weight1: float = _obj.M_WEIGHTS[0],
+                          weight2: float = _obj.M_WEIGHTS[1], theta0: float = 0.0) -> dict:
     """M of an identification curve for convergence threshold ``eps`` (e.g. M(7e-11)).
 
     Convergence time (Eq. 18): the first sample time t such that

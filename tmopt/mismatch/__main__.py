@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from tmopt.design.cli import add_design_options, check_design_options
 from tmopt.mismatch.calibration import FAMILY_ALPHA, LOCATE_ALPHA
@@ -52,7 +53,8 @@ def main(argv: list[str] | None = None) -> int:
     dg = diagnose(data_from_recording(rec), settings)
     rep = write_report(dg, args.out, plots=not args.no_plots)
     print(rep["conclusion"])
-    print(f"report: {args.out}/report.md, {args.out}/report.json")
+    out = Path(args.out)
+    print(f"report: {out / 'report.md'}, {out / 'report.json'}")
     if args.design_next:
         from tmopt.design.cli import design
 
@@ -61,7 +63,7 @@ def main(argv: list[str] | None = None) -> int:
         except ValueError as exc:  # nothing the recording left unidentified
             print(f"next excitation: none ({exc})")
             return 0
-        print(f"next excitation: {nxt['excitation']} ({args.out}/next_excitation.json)")
+        print(f"next excitation: {nxt['excitation']} ({out / 'next_excitation.json'})")
     return 0
 
 

@@ -32,6 +32,7 @@ import numpy as np
 from scipy import stats
 
 from tmopt.mismatch import calibration as cal
+from tmopt.mismatch import generic
 from tmopt.mismatch.effects import CATALOGUE, EFFECTS, Candidate, Context
 from tmopt.mismatch.fit import (
     AXES,
@@ -39,6 +40,8 @@ from tmopt.mismatch.fit import (
     Data,
     FitResult,
     align_force_timing,
+    align_kinematics,
+    choose_acc_convention,
     equation_target,
     kinematic_target,
     nominal_equation_columns,
@@ -48,17 +51,37 @@ from tmopt.mismatch.fit import (
     solve,
     solve_iv,
 )
-from tmopt.mismatch.locate import Locations, axis_directions, locate
-from tmopt.mismatch.noise_model import RED_EXPONENTS, SpatialNoise, SpectralNoise, fit_red
+from tmopt.mismatch.locate import Locations, locate
+from tmopt.mismatch.noise_model import RED_EXPONENTS, NoiseModel, fit_red
+from tmopt.mismatch.plausibility import Verdict, implausible_effects, precheck
 
 __all__ = ["Settings", "Evaluation", "State", "Diagnosis", "diagnose", "fit_state"]
 
 
 @dataclass(frozen=True)
 class Settings:
+    """``noise``: ``coloured`` (default; a robust cross-spectral matrix per residual group,
+    estimated from the recording) or ``white`` (round one's white equation noise with
+    ``colored_noise`` as a testable alternative -- for instruments known to be white).
+    ``generic``: also test unnamed features (steps, lines, curvature; reported as
+    unexplained, :mod:`tmopt.mismatch.generic`)."""
+
     alpha: float = cal.FAMILY_ALPHA
     locate_alpha: float = cal.LOCATE_ALPHA
     max_effects: int = 4
+    noise: str = "coloured"
+    generic: bool = True  # test unnamed features (tmopt.mismatch.generic) beside the catalogue
+
+    def __post_init__(self) -> None:
+        if not (0 < self.alpha < 1 and 0 < self.locate_alpha < 1):
+            raise ValueError(f"alpha and locate_alpha must be in (0, 1); got {self.alpha!r}, "
+                             f"{self.locate_alpha!r}")  # fmt: skip
+        if isinstance(self.max_effects, bool) or not isinstance(self.max_effects, int) or \
+                self.max_effects < 0:
+            raise ValueError(f"max_effects must be an integer in [0, inf); got "
+                             f"{self.max_effects!r}")  # fmt: skip
+        if self.noise not in ("coloured", "white"):
+            raise ValueError(f"noise must be 'coloured' or 'white'; got {self.noise!r}")
 
 
 @dataclass
@@ -69,9 +92,9 @@ class State:
     kin_cols: list[Column]
     red: bool  # equation noise modelled as white + power-law red (a noise effect selected)
     eq_fit: FitResult
-    eq_noise: SpatialNoise
+    eq_noise: NoiseModel
     kin_fit: FitResult
-    kin_noise: SpectralNoise
+    kin_noise: NoiseModel
     n_nominal_eq: int
     n_nominal_kin: int
 
@@ -93,48 +116,87 @@ class Evaluation:
 
 @dataclass
 class Diagnosis:
+    """The result; ``verdict`` holds the plausibility checks.  A refused recording
+    (``refused`` set: "cannot diagnose: <why>") has no fit: ``before``/``after`` are None."""
+
     data: Data
-    basis: np.ndarray
-    before: State
-    after: State
+    basis: np.ndarray | None
+    before: State | None
+    after: State | None
     selected: list[tuple[Evaluation, list[Evaluation]]]
     locations: Locations
     locations_after: Locations
     not_identifiable: list[dict]
     settings: Settings
     steps: list[list[Evaluation]] = field(default_factory=list)
+    verdict: Verdict | None = None
+    refused: str | None = None
+
+    @property
+    def effects(self) -> list[tuple[Evaluation, list[Evaluation]]]:
+        """Selected catalogue effects (named physics)."""
+        return [s for s in self.selected if s[0].candidate.effect != generic.GENERIC]
+
+    @property
+    def features(self) -> list[tuple[Evaluation, list[Evaluation]]]:
+        """Selected unnamed features (reported as unexplained, with what and where)."""
+        return [s for s in self.selected if s[0].candidate.effect == generic.GENERIC]
 
     @property
     def unexplained(self) -> bool:
-        return self.locations_after.any
+        return self.refused is None and (self.locations_after.any or bool(self.features))
 
     @property
-    def mismatch_detected(self) -> bool:
+    def mismatch_detected(self) -> bool | None:
+        if self.refused is not None:
+            return None
         return bool(self.selected) or self.unexplained
 
 
 # ---------------------------------------------------------------------------- fitting
 
 
-def _fit_eq(target, cols, red: bool, rounds=2):
+def _fit_eq(target, cols, red: bool, layout, fs: float, kind: str, rounds=2):
     """Equation group: GLS with the noise model re-estimated from the residual."""
-    noise = SpatialNoise.estimate(solve(target, cols, lambda v: v).residual)
+    noise = NoiseModel.estimate(solve(target, cols, lambda v: v).residual, layout, fs, kind)
     fit = solve(target, cols, noise.whiten)
     for _ in range(rounds):
-        noise = SpatialNoise.estimate(fit.residual)
-        if red:
+        noise = NoiseModel.estimate(fit.residual, layout, fs, kind)
+        if red and kind == "white":
             noise = noise.with_red(fit.residual)
         fit = solve(target, cols, noise.whiten)
     return fit, noise
 
 
-def _fit_kin(target, cols, rounds=2):
-    """Kinematic group: instrumental variables (closed loop), spectral noise re-estimated."""
+#: Taper of the kinematic group's segments: Hann.  Its noise is the second difference of
+#: the readout noise, blue as f^4: through a Tukey 10 % window the high frequencies leak
+#: into the lowest bins (~500x at the first bin), by an amount that depends on the
+#: segment length, and the excitation tones' bins then hold leaked noise, not the true
+#: floor; Hann's sidelobes fall as f^-6 in power.  Its price -- whitened noise whose
+#: variance follows the taper -- is paid by heteroscedasticity-consistent standard errors
+#: (:func:`hc_meat`); a narrowband statistic with the homoscedastic formula would be
+#: inflated by mean(w^4)/mean(w^2)^2 = 1.94.
+KIN_TAPER = 1.0
+
+
+def hc_meat(z: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """``Z' diag(r^2) Z``: White's heteroscedasticity-consistent middle term (White,
+    Econometrica 48, 817 (1980)) of the IV covariance ``A^-1 (Z' diag(r^2) Z) A^-T``,
+    for whitened residuals whose variance varies along the record (tapers)."""
+    return (z * (r**2)[:, None]).T @ z
+
+
+def _fit_kin(target, cols, layout, fs: float, rounds=2):
+    """Kinematic group: instrumental variables (closed loop), spectral noise re-estimated
+    (Hann-tapered segments, :data:`KIN_TAPER`; independent axes: each is one readout's
+    and one accelerometer's noise)."""
     fit = solve_iv(target, cols, lambda v: v)
-    noise = SpectralNoise.estimate(fit.residual)
+    noise = NoiseModel.estimate(fit.residual, layout, fs, taper_fraction=KIN_TAPER,
+                                coupled=False)  # fmt: skip
     for _ in range(rounds):
         fit = solve_iv(target, cols, noise.whiten)
-        noise = SpectralNoise.estimate(fit.residual)
+        noise = NoiseModel.estimate(fit.residual, layout, fs, taper_fraction=KIN_TAPER,
+                                    coupled=False)  # fmt: skip
     return fit, noise
 
 
@@ -143,8 +205,11 @@ def fit_state(data: Data, basis: np.ndarray, eq_extra: list[Column], kin_extra: 
     """Fit the nominal model plus the given extra columns, noise models re-estimated."""
     eq_nom = nominal_equation_columns(data, basis)
     kin_nom = nominal_kinematic_columns(data)
-    eq_fit, eq_noise = _fit_eq(equation_target(data, basis), eq_nom + eq_extra, red)
-    kin_fit, kin_noise = _fit_kin(kinematic_target(data), kin_nom + kin_extra)
+    kind = "smoothed" if settings.noise == "coloured" else "white"
+    eq_fit, eq_noise = _fit_eq(equation_target(data, basis), eq_nom + eq_extra, red,
+                               data.layout, data.fs, kind)  # fmt: skip
+    kin_fit, kin_noise = _fit_kin(kinematic_target(data), kin_nom + kin_extra,
+                                  data.kin_layout, data.fs)  # fmt: skip
     return State(eq_nom + eq_extra, kin_nom + kin_extra, red, eq_fit, eq_noise, kin_fit,
                  kin_noise, len(eq_nom), len(kin_nom))  # fmt: skip
 
@@ -206,11 +271,23 @@ def _red_noise_eval(cand: Candidate, state: State, fs: float) -> Evaluation:
     return ev
 
 
+#: Bins on each side of an excitation tone (beyond its own 2) where the whitened residual's
+#: local level is measured (:meth:`_IVGroup.local_level`).
+LOCAL_BINS = 12
+
+
 class _IVGroup:
     """Wald statistic of added columns in the instrumental-variable fit (kinematic group);
-    the whitened target, columns and instruments of the fitted model are cached."""
+    the whitened target, columns and instruments of the fitted model are cached.
 
-    def __init__(self, target, cols, whiten):
+    A kinematic candidate's instrument is a set of excitation tones; its statistic is
+    divided by the whitened residual's *local* level around those tones when that level
+    exceeds 1 (:meth:`local_level`): the noise model is smooth across the lowest decade,
+    where the kinematic noise of a gapped record can sit several times above it, and a
+    narrowband test there must use the noise it actually meets (conservative: never
+    multiplied up)."""
+
+    def __init__(self, target, cols, whiten, residual=None, fs: float = 1.0, layout=None):
         self.whiten = whiten
         self.y = whiten(target).ravel()
         self.n = self.y.size
@@ -218,6 +295,38 @@ class _IVGroup:
         self.z = [whiten(c.values if c.instrument is None else c.instrument).ravel()
                   for c in cols]  # fmt: skip
         self.q = _orth(cols, whiten)
+        self.fs = fs
+        self._resid = None if residual is None else whiten(residual)
+        self._layout = layout
+        self._per = None
+
+    def local_level(self, col: Column) -> float:
+        """Mean whitened periodogram of the column's channel within LOCAL_BINS bins of its
+        tones (their own +-2 bins left out), relative to the channel's median level."""
+        if self._resid is None or col.row is None or not col.tones:
+            return 1.0
+        if self._per is None:  # each segment on its own grid
+            w = self._resid
+            bounds = [(0, w.shape[1])] if self._layout is None else self._layout.bounds
+            self._per = []
+            for a, b in bounds:
+                if b - a < 32:
+                    continue
+                per = np.abs(np.fft.rfft(w[:, a:b], axis=1)) ** 2
+                per /= np.median(per[:, 1:], axis=1, keepdims=True) / math.log(2.0)
+                self._per.append((np.fft.rfftfreq(b - a, 1 / self.fs), per))
+        vals = []
+        for f, per in self._per:
+            df = f[1] - f[0]
+            sel = np.zeros(f.size, bool)
+            for t in col.tones:
+                k = abs(f - t) / df
+                sel |= (k >= 3) & (k <= 2 + LOCAL_BINS)
+            for t in col.tones:
+                sel &= abs(f - t) / df >= 3
+            vals.append(per[col.row, sel])
+        vals = np.concatenate(vals) if vals else np.zeros(0)
+        return float(np.mean(vals)) if vals.size else 1.0
 
     def _new(self, cols: list[Column]) -> tuple[list[np.ndarray], list[np.ndarray]]:
         x = [self.whiten(c.values).ravel() for c in cols]
@@ -249,8 +358,7 @@ class _IVGroup:
         ainv = np.linalg.pinv(z.T @ x)
         coef = ainv @ (z.T @ self.y)
         r = self.y - x @ coef
-        s2 = float(r @ r) / max(self.n - x.shape[1], 1)
-        cov = s2 * ainv @ (z.T @ z) @ ainv.T / np.outer(sx, sx)
+        cov = ainv @ hc_meat(z, r) @ ainv.T / np.outer(sx, sx)
         k = len(cols)
         return (coef / sx)[-k:], cov[-k:, -k:]
 
@@ -259,14 +367,16 @@ class _IVGroup:
         res = self._fit([col])
         if res is None:
             return 0.0, math.inf
-        return float(res[0][0]), float(math.sqrt(max(res[1][0, 0], 0.0)))
+        var = max(res[1][0, 0], 0.0) * max(1.0, self.local_level(col))
+        return float(res[0][0]), float(math.sqrt(var))
 
     def glr(self, cols: list[Column]) -> float:
         res = self._fit(cols)
         if res is None:
             return 0.0  # no excitation on the source axis, or already modelled
         th, cov = res
-        return float(th @ np.linalg.pinv(cov) @ th)
+        level = max([1.0] + [self.local_level(c) for c in cols])
+        return float(th @ np.linalg.pinv(cov) @ th) / level
 
 
 def _joint(cand: Candidate, groups: dict) -> float:
@@ -287,7 +397,8 @@ def evaluate(data: Data, basis: np.ndarray, state: State, settings: Settings,
     ctx = Context(data, basis, state.eq_fit.residual, state.eq_noise)
     groups = {
         "equation": _Group(None, state.eq_cols, state.eq_fit, state.eq_noise.whiten),
-        "kinematic": _IVGroup(kinematic_target(data), state.kin_cols, state.kin_noise.whiten),
+        "kinematic": _IVGroup(kinematic_target(data), state.kin_cols, state.kin_noise.whiten,
+                              state.kin_fit.residual, data.fs, data.kin_layout),
     }
     out = []
     for effect in CATALOGUE:
@@ -300,6 +411,13 @@ def evaluate(data: Data, basis: np.ndarray, state: State, settings: Settings,
                 continue
             g = groups[cand.group]
             lam = g.glr(cand.columns) if cand.twin is None else _joint(cand, groups)
+            dof = len(cand.columns)
+            p = min(1.0, cand.trials * float(stats.chi2.sf(lam, dof)))
+            out.append(Evaluation(cand, lam, dof, g.n, p))
+    if settings.generic:
+        g = groups["equation"]
+        for cand in generic.candidates(ctx):
+            lam = g.glr(cand.columns)
             dof = len(cand.columns)
             p = min(1.0, cand.trials * float(stats.chi2.sf(lam, dof)))
             out.append(Evaluation(cand, lam, dof, g.n, p))
@@ -348,6 +466,12 @@ def identifiability(data: Data, basis: np.ndarray, state: State, settings: Setti
             continue
         for cand in effect.candidates(ctx):
             if cand.plausible is None or cand.group not in nominal:
+                continue
+            if cand.source_axis is not None and not data.tones(cand.source_axis):
+                out.append({"name": cand.effect, "channel": cand.channel,
+                            "reason": "not excited", "aliased_with": None,
+                            "min_detectable": None, "plausible": cand.plausible,
+                            "needs": effect.needs})  # fmt: skip
                 continue
             cols, whiten = nominal[cand.group]
             if cand.group == "kinematic":
@@ -411,11 +535,12 @@ def _identifiable(cand: Candidate, cols: list[Column], x0: np.ndarray, whiten,
 def _locate_state(data: Data, basis: np.ndarray, state: State, alpha: float) -> Locations:
     """Excess in both groups (alpha split between them)."""
     ew = state.eq_noise.whiten(state.eq_fit.residual)
-    t_eq = data.time
-    dirs = axis_directions(basis, np.linalg.cholesky(state.eq_noise.cov))
-    loc = locate(ew, t_eq, data.fs, alpha / 2, dirs=dirs)
+    loc = locate(ew, data.time, data.fs, alpha / 2, residual=state.eq_fit.residual,
+                 noise=state.eq_noise, dirs=basis.T, interior=state.eq_noise.interior(),
+                 layout=data.layout)
     kw = state.kin_noise.whiten(state.kin_fit.residual)
-    kin = locate(kw, data.time[1:-1], data.fs, alpha / 2, names=AXES)
+    kin = locate(kw, data.time[data.kin_index], data.fs, alpha / 2, names=AXES,
+                 interior=state.kin_noise.interior(), layout=data.kin_layout)
     loc.frequency_hz = sorted(loc.frequency_hz + kin.frequency_hz)
     loc.time_s = sorted(loc.time_s + kin.time_s)
     loc.channels = loc.channels + [f"{a} readout" for a in kin.channels]
@@ -472,7 +597,8 @@ def _still_needed(data, basis, chosen: list[Evaluation], i: int, settings: Setti
     else:
         groups = {
             "equation": _Group(None, st.eq_cols, st.eq_fit, st.eq_noise.whiten),
-            "kinematic": _IVGroup(kinematic_target(data), st.kin_cols, st.kin_noise.whiten),
+            "kinematic": _IVGroup(kinematic_target(data), st.kin_cols, st.kin_noise.whiten,
+                                  st.kin_fit.residual, data.fs, data.kin_layout),
         }
         g = groups[cand.group]
         lam = g.glr(cand.columns) if cand.twin is None else _joint(cand, groups)
@@ -509,7 +635,8 @@ def _take_best(data, basis, state: State, sig: list[Evaluation], exclude: set[st
     ``exclude``."""
     best = max(sig, key=lambda e: e.dbic)
     alts = [e for e in sig if e is not best and best.dbic - e.dbic < cal.AMBIGUOUS_DBIC]
-    if not EFFECTS[best.candidate.effect].repeatable:
+    model = EFFECTS.get(best.candidate.effect)  # None: an unnamed feature (repeatable)
+    if model is not None and not model.repeatable:
         exclude.add(best.candidate.key)
     return (best, alts), _add(data, basis, state, best, settings)
 
@@ -534,11 +661,64 @@ def _deterministic_instead(data, basis, state: State, evals: list[Evaluation],
     return None
 
 
-def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
-    """Fit, locate, explain (stepwise, calibrated), re-identify; see the module docstring."""
-    settings = Settings() if settings is None else settings
+def effect_parameters(state: State, cand: Candidate) -> dict[str, tuple[float, float]]:
+    """A selected candidate's reported parameters ``{name: (value, sigma)}`` in ``state``
+    (its fitted columns through :meth:`Candidate.physical`); searched parameters as given."""
+    if cand.group == "noise":
+        return {}
+    fit = state.eq_fit if cand.group == "equation" else state.kin_fit
+    idx = [fit.names.index(c.name) for c in cand.columns]
+    return cand.physical(fit.coef[idx], fit.cov[np.ix_(idx, idx)])
+
+
+def _implausible(state: State, selected: list) -> str | None:
+    """:func:`tmopt.mismatch.plausibility.implausible_effects` on the selected effects."""
+    entries = []
+    for ev, _ in selected:
+        params = {k: v for k, (v, _) in effect_parameters(state, ev.candidate).items()}
+        entries.append({"name": ev.candidate.effect, "channel": ev.candidate.channel,
+                        "parameters": params})  # fmt: skip
+    return implausible_effects(entries)
+
+
+def _refused(data: Data, settings: Settings, verdict: Verdict, reason: str) -> Diagnosis:
+    return Diagnosis(data=data, basis=None, before=None, after=None, selected=[],
+                     locations=Locations(), locations_after=Locations(), not_identifiable=[],
+                     settings=settings, verdict=verdict, refused=reason)  # fmt: skip
+
+
+def prepare(data: Data) -> tuple[Data, np.ndarray]:
+    """Align the channels' clocks, then fix the exact kinematics: the stiffness from a
+    nominal least-squares fit of Eq. 10 and the accelerometer's sampling convention."""
     data = align_force_timing(data)
+    data = align_kinematics(data)
     basis = null_basis(data.geometry)
+    fit = solve(equation_target(data, basis), nominal_equation_columns(data, basis),
+                lambda v: v)  # fmt: skip
+    k = np.array([fit.value(n) for n in ("k1xx", "k2xx", "k1yy", "k2yy")])
+    data.stiffness = k
+    conv, info = choose_acc_convention(data, k)
+    data.acc_convention = conv
+    data.__dict__.pop("_x_eq", None)
+    data.usage["acc_convention"] = conv
+    data.usage["acc_convention_evidence"] = info
+    if info.get("from") != "attribute":
+        how = ("chosen from the data" if info.get("decided") else
+               "kept (the data cannot tell the conventions apart: below the noise)")
+        data.notes.append(f"kinematic check: exact ZOH relation with the accelerometer "
+                          f"sampling convention '{conv}' ({how})")  # fmt: skip
+    return data, basis
+
+
+def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
+    """Check, fit, locate, explain (stepwise, calibrated), re-identify; see the module
+    docstring.  A recording that fails the plausibility checks is refused ("cannot
+    diagnose: <why>", :mod:`tmopt.mismatch.plausibility`)."""
+    settings = Settings() if settings is None else settings
+    verdict = precheck(data)
+    if verdict.refused:
+        return _refused(data, settings, verdict, verdict.reason)
+    data, basis = prepare(data)
     state = before = fit_state(data, basis, [], [], False, settings)
     selected, steps = [], []
     exclude: set[str] = set()
@@ -564,12 +744,15 @@ def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
         if len(kept) < len(selected):
             selected = kept
             state = _rebuild(data, basis, [ev for ev, _ in kept], settings)
+    reason = _implausible(state, selected)
+    if reason is not None:
+        return _refused(data, settings, verdict, reason)
     return Diagnosis(
         data=data, basis=basis, before=before, after=state, selected=selected,
         locations=_locate_state(data, basis, before, settings.locate_alpha),
         locations_after=_locate_state(data, basis, state, settings.locate_alpha),
         not_identifiable=identifiability(data, basis, before, settings, n_tests),
-        settings=settings, steps=steps,
+        settings=settings, steps=steps, verdict=verdict,
     )  # fmt: skip
 
 

@@ -15,10 +15,27 @@ the first combination *is* the paper's regression ``y = K.(r'' - f_e) = psi' the
 residual be traced to an axis through its 2-D direction.
 
 The **kinematic** group checks the readouts against the accelerometer (not used by
-Eqs. 9-16): for a zero-order-hold force, ``x_{n+1} - 2x_n + x_{n-1} = h^2 (a_n + a_{n-1})/2``
-exactly (integrate ``r'' = a_n`` over two steps; the within-step change of ``k r`` is
-~1e-16 m).  Its candidates are estimated with instrumental variables (the excitation
-tones), because the loop feeds the readout noise back into the measured acceleration.
+Eqs. 9-16).  For ``r'' = k r + u`` with the force ``u`` held over each step (ZOH) the
+samples obey exactly (``C = cosh(sqrt(k) h)``, ``g = (C - 1)/k``; both real for k < 0):
+
+* accelerometer sampling ``held`` (``a_n = k r(t_n) + u_n``, this package's simulator):
+  ``x_{n+1} - (1 + C) x_n + C x_{n-1} = g (a_n + a_{n-1})``;
+* accelerometer sampling ``mean`` (``a_n`` = mean acceleration over ``[t_n, t_{n+1})``,
+  an integrating sensor): ``x_{n+1} - 2 x_n + x_{n-1} = beta (a_n + a_{n-1})`` with
+  ``beta = h (C - 1)/(sqrt(k) sinh(sqrt(k) h))``
+
+(:func:`kinematic_coefficients`; derivation in docs/mismatch.md).  Both reduce to
+``h^2/2`` at k = 0; the ``held`` form differs from the k = 0 form by ``~k h^3 v/2``, which
+at LPF-like |k| ~ 1e-6..2e-6 s^-2 reaches ~1e-13 m per sample at 2 Hz.  k is the
+equation group's estimate; the convention is read from the recording's ``acc_sampling``
+attribute or chosen from the data (:func:`choose_acc_convention`).  Kinematic candidates
+are estimated with instrumental variables (the excitation tones), because the loop feeds
+the readout noise back into the measured acceleration.
+
+**Gaps**: a recording with NaN runs or dropped rows is analysed on all its gap-free
+segments of at least :data:`MIN_SEGMENT` samples (``Data.segments``); per-sample relations
+use every valid sample, differences and lags never cross a gap, and the noise models treat
+each segment separately (:class:`tmopt.mismatch.noise_model.Layout`).
 """
 
 from __future__ import annotations
@@ -29,6 +46,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy import signal
 
+from tmopt.mismatch.noise_model import Layout
 from tmopt.physics.geometry import Geometry
 from tmopt.physics.recording import AXES
 
@@ -50,12 +68,29 @@ __all__ = [
     "tone_instrument",
     "excitation_tones",
     "output_error",
+    "kinematic_coefficients",
+    "align_kinematics",
+    "choose_acc_convention",
+    "MIN_SEGMENT",
 ]
+
+
+#: Shortest gap-free segment used (shorter pieces between gaps are left out and counted):
+#: MIN_SEGMENT samples, and SEGMENT_FRACTION of the longest segment.  A short piece has
+#: its own lowest frequency far above the record's: the red noise below it (the readout's
+#: 1/f excess; the acceleration's 1/f^2) enters its few bins as a large offset and trend
+#: that a stationary noise model of the whole record cannot describe -- one 69-sample
+#: piece of a 7024-sample record made clean recordings "show" cross-talk at GLR 700.
+MIN_SEGMENT = 64
+SEGMENT_FRACTION = 0.125
 
 
 @dataclass
 class Data:
-    """One recording as arrays (axis order :data:`AXES`): ``x``, ``acc``, ``force`` (4, N)."""
+    """One recording as arrays (axis order :data:`AXES`): ``x``, ``acc``, ``force`` (4, N)
+    over the valid samples of its gap-free ``segments`` ([(start, stop)] into these
+    arrays; one segment without gaps).  ``time`` keeps the recording's clock, so it jumps
+    across gaps.  ``usage`` says how much of the recording this is."""
 
     time: np.ndarray
     fs: float
@@ -68,6 +103,14 @@ class Data:
     omega_dot: np.ndarray | None = None
     source: str = "<memory>"
     notes: list[str] = field(default_factory=list)
+    segments: list[tuple[int, int]] | None = None
+    usage: dict = field(default_factory=dict)
+    acc_convention: str = "held"
+    stiffness: np.ndarray | None = None  # k per axis for the exact kinematics (None: 0)
+
+    def __post_init__(self) -> None:
+        if self.segments is None:
+            self.segments = [(0, int(self.time.size))]
 
     @property
     def n(self) -> int:
@@ -81,25 +124,85 @@ class Data:
     def centred_time(self) -> np.ndarray:
         return self.time - 0.5 * (self.time[0] + self.time[-1])
 
+    @property
+    def x_eq(self) -> np.ndarray:
+        """Positions as the accelerometer sees them (the stiffness term of Eq. 10): the
+        readout ``x_n`` for the ``held`` convention (``k r(t_n)``), the interval mean
+        ``(x_n + x_{n+1})/2`` for ``mean`` (exact to ``k a h^2/12`` ~ 1e-16 m s^-2); the
+        last sample of a segment keeps ``x_n``."""
+        if self.acc_convention != "mean":
+            return self.x
+        cache = self.__dict__.setdefault("_x_eq", {})
+        if "mean" not in cache:
+            out = self.x.copy()
+            for a, b in self.segments:
+                out[:, a : b - 1] = 0.5 * (self.x[:, a : b - 1] + self.x[:, a + 1 : b])
+            cache["mean"] = out
+        return cache["mean"]
+
+    @property
+    def layout(self) -> Layout:
+        return Layout(tuple((int(a), int(b)) for a, b in self.segments), self.n)
+
+    @property
+    def kin_index(self) -> np.ndarray:
+        """Sample index n of each kinematic row (n - 1, n, n + 1 in one segment)."""
+        return np.concatenate([np.arange(a + 1, b - 1) for a, b in self.segments])
+
+    @property
+    def kin_layout(self) -> Layout:
+        bounds, at = [], 0
+        for a, b in self.segments:
+            bounds.append((at, at + b - a - 2))
+            at += b - a - 2
+        return Layout(tuple(bounds), at)
+
+    @property
+    def longest(self) -> slice:
+        a, b = max(self.segments, key=lambda s: s[1] - s[0])
+        return slice(a, b)
+
+    def lagged(self, series: np.ndarray, j: int) -> np.ndarray:
+        """``series[n - j]`` within each segment, 0 where n - j is in another segment."""
+        out = np.zeros_like(series)
+        for a, b in self.segments:
+            if b - a > j:
+                out[..., a + j : b] = series[..., a : b - j]
+        return out
+
     def tones(self, axis: int) -> list[float]:
         """Excitation lines [Hz] of an axis: from the reference when recorded, else from
-        the displacement readout itself (y axes: none unless they move)."""
+        the displacement readout itself (y axes: none unless they move); found on the
+        longest gap-free segment."""
         cache = self.__dict__.setdefault("_tones", {})
         if axis not in cache:
             src = self.ref[axis] if self.ref is not None and axis < 2 else self.x[axis]
-            cache[axis] = excitation_tones(src, self.fs)
+            cache[axis] = excitation_tones(src[self.longest], self.fs)
         return cache[axis]
 
 
 def excitation_tones(x: np.ndarray, fs: float, max_tones: int = 6) -> list[float]:
-    """Frequencies [Hz] of the strongest lines of a series (Hann-windowed periodogram peaks
-    at least 1e4 x its median: deterministic excitation, not noise)."""
+    """Frequencies [Hz] of the strongest lines of a series: Hann-windowed periodogram peaks
+    at least 1e4 x the median of their surroundings (bins k/2 .. max(2k, k + 32), the peak's
+    own +-4 bins left out) -- a deterministic excitation, not noise, even on a red readout
+    spectrum (a 1/f^2 readout excess is 1e3-1e4 x its white floor at the lowest bins,
+    which a record-wide median would call lines)."""
     m = x.size
+    if m < 16:
+        return []
     per = np.abs(np.fft.rfft((x - x.mean()) * np.hanning(m))) ** 2
     f = np.fft.rfftfreq(m, 1 / fs)
-    peaks, _ = signal.find_peaks(per, height=1e4 * np.median(per[1:]) + 1e-300)
-    peaks = peaks[np.argsort(-per[peaks])][:max_tones]
-    return sorted(_refine_tone(x, fs, float(f[k])) for k in peaks if k > 0)
+    floor = 1e-300 + 1e-30 * float(per.max())
+    peaks, _ = signal.find_peaks(per, height=1e3 * np.median(per[1:]) + floor)
+    keep = []
+    for k in peaks:
+        lo, hi = max(1, k // 2), min(per.size, max(2 * k, k + 32))
+        around = np.concatenate([per[lo : max(lo, k - 4)], per[min(hi, k + 5) : hi]])
+        local = float(np.median(around)) if around.size >= 8 else float(np.median(per[1:]))
+        if per[k] >= 1e4 * local + floor:
+            keep.append(k)
+    keep = sorted(keep, key=lambda k: -per[k])[:max_tones]
+    return sorted(_refine_tone(x, fs, float(f[k])) for k in keep if k > 0)
 
 
 def _refine_tone(x: np.ndarray, fs: float, f0: float) -> float:
@@ -120,42 +223,78 @@ def _refine_tone(x: np.ndarray, fs: float, f0: float) -> float:
     return float(grid[int(np.argmax(power))])
 
 
-def _longest_valid(rec) -> tuple[slice, list[str]]:
+def _valid_segments(rec) -> tuple[list[slice], dict, list[str]]:
+    """Gap-free segments of at least MIN_SEGMENT samples, the usage summary and notes."""
     n = rec.n_samples
-    if rec.valid is None or bool(np.all(rec.valid)):
-        return slice(0, n), []
     segs = rec.segments(1)
-    best = max(segs, key=lambda s: s.stop - s.start)
-    note = (f"{n - int(np.sum(rec.valid))} masked samples in {len(rec.gaps)} gap(s): analysed "
-            f"the longest valid segment, samples {best.start}..{best.stop - 1}")  # fmt: skip
-    return best, [note]
+    longest = max((s.stop - s.start for s in segs), default=0)
+    shortest = max(MIN_SEGMENT, int(SEGMENT_FRACTION * longest))
+    kept = [s for s in segs if s.stop - s.start >= shortest]
+    valid = int(sum(s.stop - s.start for s in segs))
+    used = int(sum(s.stop - s.start for s in kept))
+    usage = {"samples_recorded": n, "samples_valid": valid, "samples_used": used,
+             "segments_used": len(kept), "segments_dropped": len(segs) - len(kept),
+             "gaps": len(rec.gaps), "fraction_used": used / n if n else 0.0}  # fmt: skip
+    notes = []
+    if rec.gaps:
+        notes.append(f"{n - valid} masked samples in {len(rec.gaps)} gap(s): analysed "
+                     f"{len(kept)} gap-free segment(s), {used} of {n} samples "
+                     f"({100 * used / n:.1f} %)")  # fmt: skip
+    if len(kept) < len(segs):
+        notes.append(f"{len(segs) - len(kept)} segment(s) shorter than {shortest} samples "
+                     f"between gaps were left out ({valid - used} samples)")  # fmt: skip
+    return kept, usage, notes
+
+
+#: The recording attribute naming the accelerometer's sampling convention.
+ACC_ATTRIBUTE = "acc_sampling"
+ACC_CONVENTIONS = ("held", "mean")
 
 
 def data_from_recording(rec) -> Data:
     """A validated :class:`~tmopt.physics.recording.Recording` -> :class:`Data`.
 
-    Gaps (NaN samples) are not filled: the longest valid segment is analysed and a note
-    says so (the kinematic check needs consecutive samples).
+    Gaps (NaN samples) are not filled: every gap-free segment of at least
+    :data:`MIN_SEGMENT` samples is kept (``Data.segments``) and a note says how much of the
+    record is used.  A recording without such a segment gives a :class:`Data` with no
+    samples (the plausibility checks then refuse it).  An ``acc_sampling`` attribute
+    (``held`` or ``mean``) fixes the accelerometer convention of the kinematic check.
     """
-    sl, notes = _longest_valid(rec)
+    segs, usage, notes = _valid_segments(rec)
+    idx = np.concatenate([np.arange(s.start, s.stop) for s in segs]) if segs else \
+        np.zeros(0, dtype=np.int64)
+    bounds, at = [], 0
+    for s in segs:
+        bounds.append((at, at + s.stop - s.start))
+        at += s.stop - s.start
+
+    def take(name: str) -> np.ndarray:
+        return np.asarray(rec[name], float)[idx]
 
     def stack(fmt: str) -> np.ndarray:
-        return np.array([np.asarray(rec[fmt.format(a)], float)[sl] for a in AXES])
+        return np.array([take(fmt.format(a)) for a in AXES]).reshape(4, idx.size)
 
     rot = "sc_omega_x" in rec
-    return Data(
-        time=np.asarray(rec["time"], float)[sl],
+    conv = str(rec.attrs.get(ACC_ATTRIBUTE, "")).strip().lower()
+    data = Data(
+        time=take("time"),
         fs=float(rec.attrs["sample_rate"]),
         x=stack("{}"),
         acc=stack("acc_{}"),
         force=stack("force_{}"),
         geometry=Geometry(float(rec.attrs["phi1"]), float(rec.attrs["phi2"])),
-        ref=np.array([rec["ref_x1"][sl], rec["ref_x2"][sl]]) if "ref_x1" in rec else None,
-        omega=np.array([rec[f"sc_omega_{c}"][sl] for c in "xyz"]) if rot else None,
-        omega_dot=np.array([rec[f"sc_omega_dot_{c}"][sl] for c in "xyz"]) if rot else None,
+        ref=np.array([take("ref_x1"), take("ref_x2")]) if "ref_x1" in rec else None,
+        omega=np.array([take(f"sc_omega_{c}") for c in "xyz"]) if rot else None,
+        omega_dot=np.array([take(f"sc_omega_dot_{c}") for c in "xyz"]) if rot else None,
         source=str(getattr(rec, "source", "<memory>")),
         notes=notes,
-    )
+        segments=bounds,
+        usage=usage,
+    )  # fmt: skip
+    if conv in ACC_CONVENTIONS:
+        data.acc_convention = conv
+        data.usage["acc_convention_from"] = "attribute"
+    return data
 
 
 #: A whole-sample shift of the force channels is taken only if it divides the nominal
@@ -163,19 +302,36 @@ def data_from_recording(rec) -> Data:
 ALIGN_GAIN = 2.0
 
 
-def _shifted(data: Data, lag: int) -> Data:
-    """``data`` with ``force[n + lag]`` paired with the other channels' sample n (ends cut)."""
+def _shifted(data: Data, lag: int, what: str = "force") -> Data:
+    """``data`` with ``<what>[n + lag]`` paired with the other channels' sample n, within
+    each segment (ends cut).  ``what`` = ``force`` (force vs acceleration, Eq. 10) or
+    ``x`` (readouts vs accelerometer, the kinematic check)."""
     if lag == 0:
         return data
-    keep = slice(0, data.n - lag) if lag > 0 else slice(-lag, data.n)
-    move = slice(lag, data.n) if lag > 0 else slice(0, data.n + lag)
+    keep, move, bounds, at = [], [], [], 0
+    for a, b in data.segments:
+        k = np.arange(a, b - lag) if lag > 0 else np.arange(a - lag, b)
+        if k.size < 3:
+            continue
+        keep.append(k)
+        move.append(k + lag)
+        bounds.append((at, at + k.size))
+        at += k.size
+    keep = np.concatenate(keep) if keep else np.zeros(0, np.int64)
+    move = np.concatenate(move) if move else np.zeros(0, np.int64)
 
-    def cut(a):
-        return None if a is None else a[..., keep]
+    def cut(arr):
+        return None if arr is None else arr[..., keep]
 
-    return replace(data, time=data.time[keep], x=data.x[:, keep], acc=data.acc[:, keep],
-                   force=data.force[:, move], ref=cut(data.ref), omega=cut(data.omega),
-                   omega_dot=cut(data.omega_dot), notes=list(data.notes))
+    shifted = {"force": data.force[:, move] if what == "force" else data.force[:, keep],
+               "x": data.x[:, move] if what == "x" else data.x[:, keep]}  # fmt: skip
+    out = replace(data, time=data.time[keep], x=shifted["x"], acc=data.acc[:, keep],
+                  force=shifted["force"], ref=cut(data.ref), omega=cut(data.omega),
+                  omega_dot=cut(data.omega_dot), notes=list(data.notes), segments=bounds,
+                  usage=dict(data.usage))  # fmt: skip
+    out.__dict__.pop("_tones", None)
+    out.__dict__.pop("_x_eq", None)
+    return out
 
 
 def _nominal_rms(data: Data, basis: np.ndarray) -> float:
@@ -228,6 +384,30 @@ def data_from_result(result, i: int = 0) -> Data:
     )
 
 
+def kinematic_coefficients(k: np.ndarray, h: float, convention: str):
+    """Per-axis exact ZOH kinematic coefficients for stiffness ``k`` (4,).
+
+    Returns ``(c_prev, c_mid, g)`` with the relation ``x_{n+1} - c_mid x_n + c_prev x_{n-1}
+    = g (a_n + a_{n-1})``: ``held`` -> ``(C, 1 + C, (C - 1)/k)``, ``mean`` ->
+    ``(1, 2, h (C - 1)/(sqrt(k) sinh(sqrt(k) h)))``, ``C = cosh(sqrt(k) h)``; power series
+    in ``z = k h^2`` (|z| < 1e-4 here, so 6 terms are exact to double precision and k < 0
+    needs no complex square root).
+    """
+    z = np.asarray(k, float) * h * h
+    # cosh(sqrt z) = sum z^j/(2j)!, (C - 1)/z = sum z^j/(2j+2)!,
+    # sinh(sqrt z)/sqrt z = sum z^j/(2j+1)!
+    fact = [math.factorial(i) for i in range(14)]
+    cosh = sum(z**j / fact[2 * j] for j in range(6))
+    cm1_z = sum(z**j / fact[2 * j + 2] for j in range(6))
+    sinh_z = sum(z**j / fact[2 * j + 1] for j in range(6))
+    if convention == "held":
+        return cosh, 1.0 + cosh, h * h * cm1_z
+    if convention == "mean":
+        one = np.ones_like(z)
+        return one, 2.0 * one, h * h * cm1_z / sinh_z
+    raise ValueError(f"convention must be one of {ACC_CONVENTIONS}; got {convention!r}")
+
+
 def fb_projection(geometry: Geometry) -> np.ndarray:
     """P (4, 2): in-plane f_B^s seen along x1, x2, y1, y2 (rows of W_sa, W_sb; Eqs. 6-7)."""
     wa, wb = geometry.w_sa[:2, :2], geometry.w_sb[:2, :2]
@@ -270,6 +450,8 @@ class Column:
     name: str
     values: np.ndarray
     instrument: np.ndarray | None = None
+    tones: tuple[float, ...] = ()  # instrument's lines [Hz] (kinematic columns)
+    row: int | None = None  # the one channel the column acts on, when it is one
 
 
 def axis_column(basis: np.ndarray, axis: int, series: np.ndarray) -> np.ndarray:
@@ -283,36 +465,61 @@ def equation_target(data: Data, basis: np.ndarray) -> np.ndarray:
 
 
 def nominal_equation_columns(data: Data, basis: np.ndarray) -> list[Column]:
-    """Eqs. 12-15: stiffness ``k_a x_a`` per axis and the two bias combinations ``N' f_D``."""
+    """Eqs. 12-15: stiffness ``k_a x_a`` per axis and the two bias combinations ``N' f_D``
+    -- one pair per gap-free segment (``R1``, ``R2`` on the first, ``R1@s``, ``R2@s`` on
+    segment s): red noise wanders across a gap, and a segment's offset from the others
+    would otherwise sit in its lowest bins, which the noise model cannot know about."""
     names = ("k1xx", "k2xx", "k1yy", "k2yy")
-    cols = [Column(nm, axis_column(basis, a, data.x[a])) for a, nm in enumerate(names)]
-    for j in range(basis.shape[1]):
-        v = np.zeros((basis.shape[1], data.n))
-        v[j] = 1.0
-        cols.append(Column(f"R{j + 1}", v))
+    cols = [Column(nm, axis_column(basis, a, data.x_eq[a])) for a, nm in enumerate(names)]
+    for s, (a, b) in enumerate(data.segments):
+        for j in range(basis.shape[1]):
+            v = np.zeros((basis.shape[1], data.n))
+            v[j, a:b] = 1.0
+            cols.append(Column(f"R{j + 1}" + (f"@{s + 1}" if s else ""), v))
     return cols
 
 
+def _kin_coefficients(data: Data):
+    k = np.zeros(4) if data.stiffness is None else np.asarray(data.stiffness, float)
+    return kinematic_coefficients(k, data.dt, data.acc_convention)
+
+
 def kinematic_target(data: Data) -> np.ndarray:
-    """``x_{n+1} - 2x_n + x_{n-1} - h^2 (a_n + a_{n-1})/2`` (4, N - 2), ZOH kinematics."""
-    h2 = data.dt**2
-    d2x = data.x[:, 2:] - 2 * data.x[:, 1:-1] + data.x[:, :-2]
-    return d2x - h2 * 0.5 * (data.acc[:, 1:-1] + data.acc[:, :-2])
+    """The exact ZOH kinematic residual (4, rows), one row per ``Data.kin_index`` sample:
+    ``x_{n+1} - c_mid x_n + c_prev x_{n-1} - g (a_n + a_{n-1})`` (:func:`kinematic_coefficients`
+    with ``data.stiffness`` and ``data.acc_convention``)."""
+    n = data.kin_index
+    c_prev, c_mid, g = (np.asarray(v, float)[:, None] for v in _kin_coefficients(data))
+    return (data.x[:, n + 1] - c_mid * data.x[:, n] + c_prev * data.x[:, n - 1]
+            - g * (data.acc[:, n] + data.acc[:, n - 1]))  # fmt: skip
 
 
 def kinematic_series(data: Data, axis: int) -> np.ndarray:
-    """``h^2 (a_n + a_{n-1})/2`` of one axis on the kinematic grid (N - 2,)."""
-    return data.dt**2 * 0.5 * (data.acc[axis, 1:-1] + data.acc[axis, :-2])
+    """``g (a_n + a_{n-1})`` of one axis on the kinematic rows: what a readout error
+    scales (``g`` ~ h^2/2)."""
+    n = data.kin_index
+    g = float(np.asarray(_kin_coefficients(data)[2], float)[axis])
+    return g * (data.acc[axis, n] + data.acc[axis, n - 1])
 
 
 def nominal_kinematic_columns(data: Data) -> list[Column]:
-    """No free parameter: the nominal kinematics is the exact ZOH relation above.
+    """The nominal kinematics is the exact ZOH relation above; its only free parameters
+    are an offset per axis and gap-free segment (an accelerometer bias makes one, and the
+    readout's red noise -- double-differenced and shaped by the noise model -- wanders
+    across gaps).
 
     A 3-tap "sampling convention" nuisance was tried and dropped: the readout noise in the
     second difference (2.4e-11 m per sample, blue) determines its taps only to ~0.1, and
     that uncertainty re-enters the residual at the excitation lines (docs/mismatch.md).
+    The convention is chosen instead (:func:`choose_acc_convention`).
     """
-    return []
+    cols = []
+    for s, (a, b) in enumerate(data.kin_layout.bounds):
+        for ax in range(4):
+            v = np.zeros((4, data.kin_layout.n))
+            v[ax, a:b] = 1.0
+            cols.append(Column(f"kin_offset_{AXES[ax]}" + (f"@{s + 1}" if s else ""), v))
+    return cols
 
 
 def tone_instrument(series: np.ndarray, time: np.ndarray, tones: list[float]) -> np.ndarray:
@@ -385,9 +592,10 @@ def solve(target: np.ndarray, columns: list[Column], whiten) -> FitResult:
 def solve_iv(target: np.ndarray, columns: list[Column], whiten) -> FitResult:
     """Instrumental-variable estimate on whitened data (just identified).
 
-    ``theta = (Z'X)^-1 Z'y``, covariance ``s^2 (Z'X)^-1 Z'Z (X'Z)^-1``; a column without an
-    instrument is its own.  Whitening is linear, so a valid (noise-independent) instrument
-    stays valid after it.
+    ``theta = (Z'X)^-1 Z'y``, heteroscedasticity-consistent covariance ``(Z'X)^-1 Z'
+    diag(r^2) Z (X'Z)^-1`` (White 1980: tapered, whitened residuals have a variance that
+    follows the taper); a column without an instrument is its own.  Whitening is linear,
+    so a valid (noise-independent) instrument stays valid after it.
     """
     yw = whiten(target).ravel()
     if not columns:
@@ -401,8 +609,7 @@ def solve_iv(target: np.ndarray, columns: list[Column], whiten) -> FitResult:
     coef_s = ainv @ (z.T @ yw)
     rw = yw - x @ coef_s
     rss = float(rw @ rw)
-    s2 = rss / max(yw.size - x.shape[1], 1)
-    cov_s = s2 * ainv @ (z.T @ z) @ ainv.T
+    cov_s = ainv @ ((z * (rw**2)[:, None]).T @ z) @ ainv.T
     coef = coef_s / scale
     cov = cov_s / np.outer(scale, scale)
     fitted = sum(c * col.values for c, col in zip(coef, columns))
@@ -414,22 +621,127 @@ def output_error(data: Data, basis: np.ndarray, eq_fitted: np.ndarray) -> np.nda
 
     The replay double-integrates (ZOH, exact for held forces) the *model* acceleration
     ``N' f + fitted(N' (acc - f))`` of the identified model, driven by the recorded
-    commanded forces; initial position and velocity are fitted by least squares.  f_B
-    cancels in these combinations, so no unknown input is needed.  Integrated actuation
-    and accelerometer noise make this residual red (random walk): it is a diagnostic of
-    the replay, not the statistic of the tests.
+    commanded forces; initial position and velocity are fitted by least squares, per
+    gap-free segment (a replay cannot cross a gap).  f_B cancels in these combinations,
+    so no unknown input is needed.  Integrated actuation and accelerometer noise make this
+    residual red (random walk): it is a diagnostic of the replay, not the statistic of
+    the tests.
     """
     h = data.dt
     model_acc = basis.T @ data.force + eq_fitted
     q = basis.T @ data.x
-    vel = np.concatenate([np.zeros((2, 1)), np.cumsum(model_acc[:, :-1] * h, axis=1)], axis=1)
-    pos = np.concatenate([np.zeros((2, 1)),
-                          np.cumsum(vel[:, :-1] * h + 0.5 * model_acc[:, :-1] * h * h, axis=1)],
-                         axis=1)  # fmt: skip
-    t = data.time - data.time[0]
-    basis_ic = np.column_stack([np.ones_like(t), t])
     out = np.empty_like(q)
-    for j in range(2):
-        c, *_ = np.linalg.lstsq(basis_ic, q[j] - pos[j], rcond=None)
-        out[j] = q[j] - pos[j] - basis_ic @ c
+    for a, b in data.segments:
+        ma = model_acc[:, a:b]
+        vel = np.concatenate([np.zeros((2, 1)), np.cumsum(ma[:, :-1] * h, axis=1)], axis=1)
+        pos = np.concatenate([np.zeros((2, 1)),
+                              np.cumsum(vel[:, :-1] * h + 0.5 * ma[:, :-1] * h * h, axis=1)],
+                             axis=1)  # fmt: skip
+        t = data.time[a:b] - data.time[a]
+        basis_ic = np.column_stack([np.ones_like(t), t])
+        for j in range(2):
+            c, *_ = np.linalg.lstsq(basis_ic, q[j, a:b] - pos[j], rcond=None)
+            out[j, a:b] = q[j, a:b] - pos[j] - basis_ic @ c
     return out
+
+
+def align_kinematics(data: Data, max_lag: int = 2) -> Data:
+    """Pair the displacement readouts with the accelerations they belong to.
+
+    The kinematic check needs x and acc on one clock; a recorder that stamps one of them a
+    whole sample off breaks it by the motion's step-to-step change.  The integer lag of x
+    in ``[-max_lag, max_lag]`` that minimises the kinematic residual of the excited
+    sensitive axes is taken if it divides it by ``ALIGN_GAIN`` (a note says so).
+    """
+    rms = {}
+    for lag in range(-max_lag, max_lag + 1):
+        d = _shifted(data, lag, "x")
+        if d.n - 2 * len(d.segments) < 16:
+            continue
+        rms[lag] = float(np.sqrt(np.mean(kinematic_target(d)[:2] ** 2)))
+    if not rms or 0 not in rms:
+        return data
+    best = min(rms, key=rms.get)
+    if best == 0 or rms[0] < ALIGN_GAIN * rms[best]:
+        return data
+    out = _shifted(data, best, "x")
+    side = "late" if best > 0 else "early"
+    out.notes.append(
+        f"the displacement readouts are stamped {abs(best)} sample(s) {side} relative to the "
+        f"accelerations (kinematic residual {rms[0]:.3g} -> {rms[best]:.3g} m when aligned); "
+        "they were aligned before the diagnosis")  # fmt: skip
+    return out
+
+
+def choose_acc_convention(data: Data, k: np.ndarray) -> tuple[str, dict]:
+    """Which accelerometer sampling convention the recording follows (``held`` or ``mean``).
+
+    ``held`` (``a_n = k r(t_n) + u_n``) and ``mean`` (the mean over ``[t_n, t_{n+1})``)
+    differ in Eq. 10 by the stiffness term ``k (r_n - r̄_n) ~ -k v h/2``: the nominal
+    least-squares fit of Eq. 10 with ``x_n`` or ``(x_n + x_{n+1})/2`` is compared by the
+    likelihood ratio ``LR = n log(RSS_held / RSS_mean)``.  That term is in step with the
+    motion, and a wrong convention makes it look like an actuation delay.  When
+    ``|LR| < DECIDE_LR`` the data cannot tell (the difference is below the noise) and the
+    kinematic evidence decides (:func:`_kinematic_convention`); failing that, ``held``.
+    The recording's ``acc_sampling`` attribute, when present, decides instead.
+    """
+    if data.usage.get("acc_convention_from") == "attribute":
+        return data.acc_convention, {"from": "attribute"}
+    basis = null_basis(data.geometry)
+    rss = {}
+    for conv in ACC_CONVENTIONS:
+        probe = replace(data, acc_convention=conv, notes=[])
+        probe.__dict__.pop("_x_eq", None)
+        fit = solve(equation_target(probe, basis), nominal_equation_columns(probe, basis),
+                    lambda v: v)  # fmt: skip
+        rss[conv] = float(np.sum(fit.residual**2))
+    n_obs = 2 * data.n
+    lr = n_obs * math.log(max(rss["held"], 1e-300) / max(rss["mean"], 1e-300))
+    info = {"equation_lr_mean_vs_held": lr}
+    if abs(lr) >= DECIDE_LR:
+        info["decided"] = True
+        info["by"] = "equation group"
+        return ("mean" if lr > 0 else "held"), info
+    conv, kin = _kinematic_convention(data, k)
+    info.update(kin)
+    return conv, info
+
+
+#: |LR| (chi^2_1 units) above which the equation group decides the convention (p ~ 2e-3).
+DECIDE_LR = 10.0
+
+
+def _kinematic_convention(data: Data, k: np.ndarray) -> tuple[str, dict]:
+    """The kinematic evidence: the two exact relations differ by ``~k h^2/2 (x_n -
+    x_{n-1})``; its coefficient ``gamma`` is estimated on the sensitive axes by
+    instrumental variables (the excitation tones): ``held`` predicts gamma = k, ``mean``
+    gamma ~ 0; decided when the predictions are 2 standard errors apart."""
+    info: dict = {}
+    probe = replace(data, stiffness=np.zeros(4), acc_convention="mean", notes=[])
+    probe.__dict__.pop("_tones", None)
+    y = kinematic_target(probe)
+    n = data.kin_index
+    h2 = data.dt**2
+    votes = []
+    for a in (0, 1):
+        tones = data.tones(a)
+        if not tones:
+            continue
+        reg = 0.5 * h2 * (data.x[a, n] - data.x[a, n - 1])
+        z = tone_instrument(reg, data.time[n], tones)
+        zz = float(z @ reg)
+        if zz == 0:
+            continue
+        gam = float(z @ y[a]) / zz
+        res = y[a] - gam * reg
+        se = math.sqrt(float(np.mean(res**2)) * float(z @ z)) / abs(zz)
+        votes.append((gam, se, float(k[a])))
+        info[AXES[a]] = {"gamma": gam, "se": se, "k": float(k[a])}
+    decisive = [(g, s, kk) for g, s, kk in votes if abs(kk) > 2 * s]
+    if not decisive:
+        info["decided"] = False
+        return "held", info
+    score = sum(((g - kk) / s) ** 2 - (g / s) ** 2 for g, s, kk in decisive)
+    info["decided"] = True
+    info["by"] = "kinematic group"
+    return ("held" if score < 0 else "mean"), info

@@ -26,7 +26,7 @@ from scipy import signal, stats
 
 from tmopt.mismatch.fit import AXES, excitation_tones
 
-__all__ = ["Locations", "frequency_bands", "time_windows", "axis_directions", "locate",
+__all__ = ["Locations", "frequency_bands", "time_windows", "axis_directions", "locate", "rescaled",
            "tone_transfer", "witness_coherence", "excitation_tones"]  # fmt: skip
 
 
@@ -92,7 +92,8 @@ def time_windows(white: np.ndarray, time: np.ndarray, fs: float, alpha: float,
         ms = (white[:, : nwin * w] ** 2).reshape(c, nwin, w).sum(axis=(0, 2))
         p = stats.chi2.sf(ms, c * w)
         starts = time[: nwin * w : w]
-        tests.append((p, starts, starts + w / fs))
+        ends = time[w - 1 : nwin * w : w] + 1.0 / fs  # a window may span a gap
+        tests.append((p, starts, ends))
     total = sum(t[0].size for t in tests)
     if not total:
         return [], 1.0
@@ -124,22 +125,107 @@ def axis_directions(basis: np.ndarray, chol: np.ndarray) -> np.ndarray:
 
 def excess_axes(white: np.ndarray, dirs: np.ndarray, fs: float, bands: list[list[float]],
                 cos_min: float = 0.98) -> list[str]:  # fmt: skip
-    """Axes whose direction matches the principal direction of the excess power."""
+    """Axes whose direction matches the principal direction of the excess power (white
+    noise model: ``white`` is spatially whitened and ``dirs`` are in that plane)."""
     m = white.shape[1]
     x = np.fft.rfft(white, axis=1)
     f = np.fft.rfftfreq(m, 1 / fs)
+    mask = _band_mask(f, bands)
+    xs = x[:, mask]
+    mom = np.real(xs @ xs.conj().T) / m - np.eye(white.shape[0]) * mask.sum() / f.size
+    return _principal_axes(mom, dirs, cos_min)
+
+
+def _band_mask(f: np.ndarray, bands: list[list[float]]) -> np.ndarray:
     mask = np.zeros(f.size, bool)
     for lo, hi in bands:
         mask |= (f >= lo) & (f <= hi)
     if not mask.any():
         mask[:] = True
-    xs = x[:, mask]
-    mom = np.real(xs @ xs.conj().T) / m - np.eye(white.shape[0]) * mask.sum() / f.size
+    return mask
+
+
+def _principal_axes(mom: np.ndarray, dirs: np.ndarray, cos_min: float) -> list[str]:
     w, v = np.linalg.eigh(mom)
     if w[-1] <= 0:
         return []
-    cos = np.abs(v[:, -1] @ dirs)
+    d = dirs / np.linalg.norm(dirs, axis=0)
+    cos = np.abs(v[:, -1] @ d)
     return [AXES[a] for a in np.argsort(-cos) if cos[a] >= cos_min]
+
+
+def excess_axes_physical(residual: np.ndarray, noise, fs: float, bands: list[list[float]],
+                         dirs: np.ndarray, window: tuple[float, float] | None = None,
+                         time: np.ndarray | None = None,
+                         cos_min: float = 0.98) -> list[str]:  # fmt: skip
+    """Axes whose direction in the physical f_B-free plane (``dirs`` (2, 4), the rows of
+    the null basis) matches the principal direction of the excess cross-spectral power
+    ``sum (X X^H - S(f))`` over the flagged bands (or, for a time window, of the excess
+    second moment of the whitened-then-unwhitened... simply the residual in the window
+    minus the noise model's covariance).  Works for any coloured noise model."""
+    if window is not None and time is not None:
+        sel = (time >= window[0]) & (time < window[1])
+        r = residual[:, sel]
+        if r.shape[1] < 2:
+            return []
+        mom = (r @ r.T) / r.shape[1] - noise.cov
+        return _principal_axes(mom, dirs, cos_min)
+    mom = np.zeros((residual.shape[0], residual.shape[0]))
+    for a, b in noise.layout.bounds:
+        m = b - a
+        if m < 16:
+            continue
+        from tmopt.mismatch.noise_model import taper
+
+        win = taper(m, noise.taper_fraction)
+        norm = math.sqrt(float(np.mean(win**2)) * m)
+        xf = np.fft.rfft(residual[:, a:b] * win, axis=1) / norm
+        f = np.fft.rfftfreq(m, 1 / fs)
+        mask = _band_mask(f, bands)
+        s = noise.matrix(f[mask])
+        xs = xf[:, mask]
+        mom += np.real(xs @ xs.conj().T) - np.real(s.sum(axis=0))
+    return _principal_axes(mom, dirs, cos_min)
+
+
+def segment_bands(white: np.ndarray, fs: float, alpha: float, layout=None):
+    """:func:`frequency_bands` of each gap-free segment separately (Bonferroni over
+    segments), merged: a segment's whitened series is white on its own frequency grid,
+    but the concatenation of segments of different lengths is not at frequencies below
+    the shorter ones' resolution.  Returns (bands, min_p)."""
+    bounds = [(0, white.shape[1])] if layout is None else list(layout.bounds)
+    bounds = [(a, b) for a, b in bounds if b - a >= 32]
+    if not bounds:
+        return [], 1.0
+    out, min_p = [], 1.0
+    for a, b in bounds:
+        bands, p, *_ = frequency_bands(white[:, a:b], fs, alpha / len(bounds))
+        out += bands
+        min_p = min(min_p, p * len(bounds))
+    out.sort()
+    merged: list[list[float]] = []
+    for lo, hi in out:
+        if merged and lo <= merged[-1][1] + 1e-12:
+            merged[-1][1] = max(merged[-1][1], hi)
+        else:
+            merged.append([lo, hi])
+    return merged, float(min(1.0, min_p))
+
+
+def rescaled(white: np.ndarray, interior: np.ndarray | None = None) -> np.ndarray:
+    """Each whitened channel divided by its robust standard deviation (MAD over the
+    ``interior`` samples, away from tapered segment ends): the tests then do not depend
+    on the noise model's overall level, only on its shape, and a transient or a line
+    hardly moves the scale."""
+    out = np.array(white, dtype=float)
+    for i, row in enumerate(out):
+        nz = row[interior] if interior is not None else row
+        nz = nz[nz != 0]
+        if nz.size > 16:
+            s = 1.4826 * float(np.median(np.abs(nz - np.median(nz))))
+            if s > 0:
+                out[i] = row / s
+    return out
 
 
 def locate(
@@ -149,23 +235,36 @@ def locate(
     alpha: float,
     dirs: np.ndarray | None = None,
     names: tuple[str, ...] | None = None,
+    residual: np.ndarray | None = None,
+    noise=None,
+    interior: np.ndarray | None = None,
+    layout=None,
 ) -> Locations:
     """Frequency bands, time windows and channels of the excess in one residual group.
 
     ``alpha`` is shared between the frequency and time tests (Bonferroni over both).
-    With ``dirs`` (equation group) channels come from the excess direction; with ``names``
+    Channels: with ``residual`` and ``noise`` (equation group), from the direction of the
+    excess in the physical f_B-free plane (``dirs`` = the null basis's rows, (2, 4)); with
+    ``dirs`` alone, in the spatially whitened plane (white noise); with ``names``
     (kinematic group, one channel per axis) from the channels that carry the excess.
     """
-    bands, pf, *_ = frequency_bands(white, fs, alpha / 2)
+    white = rescaled(white, interior)
+    bands, pf = segment_bands(white, fs, alpha / 2, layout)
     wins, pt = time_windows(white, time, fs, alpha / 2)
     loc = Locations(bands, wins, [], min(1.0, 2 * min(pf, pt)))
     if not loc.any:
         return loc
-    if dirs is not None:
+    if residual is not None and noise is not None and dirs is not None:
+        chans = excess_axes_physical(residual, noise, fs, bands, dirs) if bands else []
+        for w in wins:
+            chans += [a for a in excess_axes_physical(residual, noise, fs, [], dirs, tuple(w),
+                                                      time) if a not in chans]  # fmt: skip
+        loc.channels = chans
+    elif dirs is not None:
         loc.channels = excess_axes(white, dirs, fs, bands)
     elif names is not None:
         for i, nm in enumerate(names):
-            b, p1, *_ = frequency_bands(white[i : i + 1], fs, alpha / 2)
+            b, p1 = segment_bands(white[i : i + 1], fs, alpha / 2, layout)
             w, p2 = time_windows(white[i : i + 1], time, fs, alpha / 2)
             if b or w:
                 loc.channels.append(nm)

@@ -6,11 +6,12 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
 
-from tmopt.mismatch.diagnose import Diagnosis, State, stiffness, summary
+from tmopt.mismatch.diagnose import Diagnosis, State, effect_parameters, stiffness, summary
 from tmopt.mismatch.effects import CATALOGUE
 from tmopt.mismatch.fit import AXES
 from tmopt.mismatch.locate import tone_transfer, witness_coherence
@@ -21,12 +22,6 @@ SCHEMA_VERSION = 1
 _NEEDS = {e.name: e.needs for e in CATALOGUE}
 
 
-def _coefs(state: State, cand) -> tuple[np.ndarray, np.ndarray]:
-    fit = state.eq_fit if cand.group == "equation" else state.kin_fit
-    idx = [fit.names.index(c.name) for c in cand.columns]
-    return fit.coef[idx], fit.cov[np.ix_(idx, idx)]
-
-
 def _effect_entry(dg: Diagnosis, ev, alts) -> dict:
     cand = ev.candidate
     if cand.group == "noise":
@@ -35,7 +30,7 @@ def _effect_entry(dg: Diagnosis, ev, alts) -> dict:
         params = {"knee_hz": [k * fs for k, _, _ in red], "exponent": [g for _, g, _ in red]}
         unc: dict = {}
     else:
-        phys = cand.physical(*_coefs(dg.after, cand))
+        phys = effect_parameters(dg.after, cand)
         params = {k: v for k, (v, _) in phys.items()}
         unc = {k: s for k, (_, s) in phys.items()}
         params.update(cand.fixed)
@@ -55,18 +50,76 @@ def _effect_entry(dg: Diagnosis, ev, alts) -> dict:
     }
 
 
+def _axes(channel: str) -> set[str]:
+    """The axes a channel label names ("x1", "y1<-x1", "acc:x1<-x2", "x1 readout")."""
+    return set(re.findall(r"[xy][12]", channel))
+
+
+def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
+    """Why a selected effect's name is not a confident one (empty: it is):
+
+    * near alternatives (within AMBIGUOUS_DBIC) of another name, catalogue or unnamed;
+    * with ``dg``: an unnamed feature selected on the same channel (a linear drift beside
+      a curvature, a stiffness drift beside a stiffness step);
+    * with ``dg``: excess the final model still leaves located on one of the effect's
+      axes in the effect's own residual group (equation residual for forces, the readout
+      residual for kinematic effects; :attr:`Diagnosis.locations_after`) -- the best
+      catalogue effect left
+      significant structure there, so it is at most part of the story (issue 26: a
+      confident wrong name is the worst outcome)."""
+    out = [{"name": a.candidate.effect, "channel": a.candidate.channel, "delta_bic": a.dbic}
+           for a in alts if a.candidate.effect != ev.candidate.effect]  # fmt: skip
+    if dg is None:
+        return out
+    out += [{"name": f.candidate.effect, "channel": f.candidate.channel, "delta_bic": f.dbic}
+            for f, _ in dg.features if f.candidate.channel == ev.candidate.channel]  # fmt: skip
+    mine = _axes(ev.candidate.channel)
+    kin = ev.candidate.group == "kinematic"  # its structure is in the readout residual
+    left = [c for c in dg.locations_after.channels
+            if _axes(c) & mine and c.endswith(" readout") == kin]  # fmt: skip
+    if left:
+        out.append({"name": "unexplained structure left", "channel": ", ".join(left),
+                    "delta_bic": None})  # fmt: skip
+    return out
+
+
+def _unexplained_at(dg: Diagnosis, rep: dict) -> dict:
+    """Where the unexplained part is: the unnamed features' channels, onsets and lines,
+    and what the final model still leaves located."""
+    loc = {k: list(v) for k, v in rep["locations_unexplained"].items()}
+    for f in rep["features"]:
+        if f["channel"] not in loc["channels"]:
+            loc["channels"].append(f["channel"])
+        p = f["parameters"]
+        if "t0_s" in p:
+            loc["time_s"].append([p["t0_s"], p["t0_s"]])
+        if "frequency_hz" in p:
+            loc["frequency_hz"].append([p["frequency_hz"], p["frequency_hz"]])
+    return loc
+
+
 def _not_identifiable(dg: Diagnosis) -> list[dict]:
     out = [dict(r) for r in dg.not_identifiable]
-    for ev, alts in dg.selected:
-        others = [a for a in alts if a.candidate.effect != ev.candidate.effect]
+    for ev, alts in dg.effects:
+        others = _rivals(ev, alts, dg)
         if others:
             out.append({
                 "name": ev.candidate.effect, "channel": ev.candidate.channel,
                 "reason": "ambiguous",
-                "aliased_with": [a.candidate.key for a in others],
+                "aliased_with": [f"{a['name']}[{a['channel']}]" for a in others],
                 "needs": _NEEDS[ev.candidate.effect],
             })  # fmt: skip
     return out
+
+
+def _feature_entry(dg: Diagnosis, ev) -> dict:
+    """An unnamed feature: what (its words and searched parameters), where, how strong."""
+    cand = ev.candidate
+    return {"feature": cand.fixed.get("feature"), "channel": cand.channel,
+            "parameters": {k: v for k, v in cand.fixed.items() if k != "feature"},
+            "evidence": {"delta_bic": ev.dbic, "glr": ev.glr, "p_holm": ev.p_holm,
+                         "trials": cand.trials},
+            "description": cand.text}  # fmt: skip
 
 
 def _fmt_loc(loc: dict) -> str:
@@ -83,14 +136,22 @@ def _fmt_loc(loc: dict) -> str:
 
 def conclusion(rep: dict) -> str:
     """One line: what the tool concludes."""
+    if rep.get("status") == "cannot_diagnose":
+        return rep["reason"]
     if not rep["mismatch_detected"]:
         return "no significant mismatch: the residual is consistent with the noise model"
     words = []
     if rep["effects"]:
         words.append("mismatch explained by " + ", ".join(
             f"{e['name']} [{e['channel']}]" for e in rep["effects"]))  # fmt: skip
-    if rep["unexplained"]:
-        words.append("unexplained mismatch at " + _fmt_loc(rep["locations_unexplained"]))
+    for a in rep.get("ambiguous", []):
+        words.append("ambiguous: " + " or ".join(
+            [f"{a['name']} [{a['channel']}]"] + [f"{r['name']} [{r['channel']}]"
+                                                 for r in a["rivals"]]))  # fmt: skip
+    words += [f["description"] for f in rep.get("features", [])]
+    loc = rep["locations_unexplained"]
+    if loc["frequency_hz"] or loc["time_s"]:
+        words.append("unexplained mismatch at " + _fmt_loc(loc))
     return "; ".join(words)
 
 
@@ -113,26 +174,60 @@ def _diagnostics(dg: Diagnosis) -> dict:
     return out
 
 
+def _refused_report(dg: Diagnosis) -> dict:
+    """A recording the tool cannot speak about: why, and the checks that say so."""
+    rep = {
+        "schema_version": SCHEMA_VERSION, "source": dg.data.source,
+        "status": "cannot_diagnose", "reason": dg.refused,
+        "checks": dg.verdict.as_dict()["checks"] if dg.verdict else [],
+        "data_used": dict(dg.data.usage),
+        "mismatch_detected": None, "unexplained": None,
+        "locations": {"frequency_hz": [], "time_s": [], "channels": []},
+        "locations_unexplained": {"frequency_hz": [], "time_s": [], "channels": []},
+        "effects": [], "ambiguous": [], "features": [], "not_identifiable": [],
+        "unexplained_at": {"frequency_hz": [], "time_s": [], "channels": []},
+        "notes": list(dg.data.notes),
+        "settings": _settings(dg),
+    }  # fmt: skip
+    rep["conclusion"] = conclusion(rep)
+    return rep
+
+
+def _settings(dg: Diagnosis) -> dict:
+    return {"family_alpha": dg.settings.alpha, "locate_alpha": dg.settings.locate_alpha,
+            "max_effects": dg.settings.max_effects, "noise": dg.settings.noise}  # fmt: skip
+
+
 def build_report(dg: Diagnosis) -> dict:
     """The report as a JSON-ready dict (see docs/mismatch-report-schema.md)."""
+    if dg.refused is not None:
+        return _refused_report(dg)
     before = summary(dg.data, dg.basis, dg.before)
     after = summary(dg.data, dg.basis, dg.after)
     rep = {
         "schema_version": SCHEMA_VERSION,
         "source": dg.data.source,
+        "status": "diagnosed",
+        "reason": None,
+        "checks": dg.verdict.as_dict()["checks"] if dg.verdict else [],
+        "data_used": dict(dg.data.usage),
         "mismatch_detected": dg.mismatch_detected,
         "unexplained": dg.unexplained,
         "locations": dg.locations.as_dict(),
         "locations_unexplained": dg.locations_after.as_dict(),
-        "effects": [_effect_entry(dg, ev, alts) for ev, alts in dg.selected],
+        "effects": [_effect_entry(dg, ev, alts) for ev, alts in dg.effects
+                    if not _rivals(ev, alts, dg)],
+        "ambiguous": [{**_effect_entry(dg, ev, alts), "rivals": _rivals(ev, alts, dg)}
+                      for ev, alts in dg.effects if _rivals(ev, alts, dg)],
+        "features": [_feature_entry(dg, ev) for ev, _ in dg.features],
         "not_identifiable": _not_identifiable(dg),
         "fit": {"before": before, "after": after},
         "stiffness": {k: _stiff(s) for k, s in (("before", dg.before), ("after", dg.after))},
         "diagnostics": _diagnostics(dg),
-        "settings": {"family_alpha": dg.settings.alpha, "locate_alpha": dg.settings.locate_alpha,
-                     "max_effects": dg.settings.max_effects},
+        "settings": _settings(dg),
         "notes": list(dg.data.notes),
     }  # fmt: skip
+    rep["unexplained_at"] = _unexplained_at(dg, rep)
     rep["conclusion"] = conclusion(rep)
     return rep
 
@@ -167,6 +262,9 @@ def write_report(dg: Diagnosis, out: str | Path, plots: bool = True) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     rep = _clean(build_report(dg))
     (out / "report.json").write_text(json.dumps(rep, indent=2))
+    if rep["status"] == "cannot_diagnose":
+        (out / "report.md").write_text(_markdown_refused(rep))
+        return rep
     figs = _plots(dg, rep, out) if plots else []
     (out / "report.md").write_text(_markdown(rep, figs))
     return rep
@@ -179,10 +277,30 @@ def _num(v) -> str:
     return "—" if v is None else (f"{v:.4g}" if isinstance(v, float) else str(v))
 
 
+def _markdown_refused(rep: dict) -> str:
+    lines = [f"# Mismatch report: {rep['source']}", "", f"**{rep['conclusion']}**", "",
+             "## Checks of the closed loop's own consistency", ""]  # fmt: skip
+    for c in rep["checks"]:
+        lines.append(f"- {c['name']}: {c['status']} -- {c['detail']}")
+    if rep["notes"]:
+        lines += ["", "## Notes", ""] + [f"- {n}" for n in rep["notes"]]
+    return "\n".join(lines) + "\n"
+
+
+def _data_line(rep: dict) -> str:
+    u = rep.get("data_used") or {}
+    if not u:
+        return ""
+    return (f"Data used: {u.get('samples_used')} of {u.get('samples_recorded')} samples "
+            f"({100 * u.get('fraction_used', 1.0):.1f} %) in {u.get('segments_used')} gap-free "
+            f"segment(s); accelerometer convention {u.get('acc_convention', 'held')}.")
+
+
 def _markdown(rep: dict, figs: list[str]) -> str:
     fb, fa = rep["fit"]["before"], rep["fit"]["after"]
     sb, sa = rep["stiffness"]["before"], rep["stiffness"]["after"]
-    lines = [f"# Mismatch report: {rep['source']}", "", f"**{rep['conclusion']}**", ""]
+    lines = [f"# Mismatch report: {rep['source']}", "", f"**{rep['conclusion']}**", "",
+             _data_line(rep), ""]  # fmt: skip
     lines += ["## Where (nominal model's residual)", "", _fmt_loc(rep["locations"]), ""]
     lines += ["## Effects selected", ""]
     if rep["effects"]:
@@ -239,8 +357,15 @@ def _plots(dg: Diagnosis, rep: dict, out: Path) -> list[str]:
     for r, lab in ((before, "before"), (after, "after")):
         f, p = _psd(r[0], d.fs)
         ax.loglog(f[1:], np.sqrt(p[1:]), label=f"K-combination residual, {lab}", lw=0.8)
-    sig = math.sqrt(dg.after.eq_noise.cov[0, 0])
-    ax.axhline(sig * math.sqrt(2 / d.fs), color="k", ls="--", lw=0.8, label="noise floor (white)")
+    noise = dg.after.eq_noise
+    if noise.kind == "smoothed":
+        fm = np.geomspace(1.0 / (d.n * d.dt), d.fs / 2, 200)
+        ax.loglog(fm, noise.asd(fm)[0], color="k", ls="--", lw=0.8,
+                  label="noise model (estimated, coloured)")  # fmt: skip
+    else:
+        sig = math.sqrt(noise.cov[0, 0])
+        ax.axhline(sig * math.sqrt(2 / d.fs), color="k", ls="--", lw=0.8,
+                   label="noise floor (white)")  # fmt: skip
     for lo, hi in rep["locations"]["frequency_hz"]:
         ax.axvspan(max(lo, 1 / (d.n * d.dt)), hi, color="r", alpha=0.15)
     ax.set(xlabel="frequency [Hz]", ylabel="ASD [m s^-2 / sqrt(Hz)]", title="Residual spectrum")

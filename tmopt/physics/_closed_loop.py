@@ -138,15 +138,22 @@ def frbf_forward(x1, x2, c, b, w, f2, f3, f4):
     for j1 in range(N_MF):
         for j2 in range(N_MF):
             f3[j1 * N_MF + j2] = f2[0, j1] * f2[1, j2]
-    for m in range(3):
-        s = 0.0
-        for r in range(N_RULE):
-            s += w[m, r] * f3[r]
-        f4[m] = s
+    # the three sums side by side (each in the order r = 0..48, so the same bits): three
+    # independent chains of additions instead of one after the other
+    s0 = 0.0
+    s1 = 0.0
+    s2 = 0.0
+    for r in range(N_RULE):
+        s0 += w[0, r] * f3[r]
+        s1 += w[1, r] * f3[r]
+        s2 += w[2, r] * f3[r]
+    f4[0] = s0
+    f4[1] = s1
+    f4[2] = s2
 
 
 @register_jitable
-def frbf_learn(x1, x2, g, c, b, w, dc, db, dw, f3, q, eta, mom, bmin):
+def frbf_learn(x1, x2, g, c, b, w, dc, db, dw, f3, q, eta, mom, bmin, s):
     """Eqs. 26-27: one gradient-descent-with-momentum step on ``w``, ``c`` and ``b``.
 
     ``g[m] = dE/df4_m`` (already chained through the PID and the plant-Jacobian sign).
@@ -154,6 +161,7 @@ def frbf_learn(x1, x2, g, c, b, w, dc, db, dw, f3, q, eta, mom, bmin):
     ``df2/db = 2 (x - c)^2 / b^3 f2``.
     Every parameter moves by ``-eta dE/dp + mom (p_{n-1} - p_{n-2})``; ``dc, db, dw`` hold
     the previous moves.  Widths are kept >= ``bmin`` so the memberships stay defined.
+    ``q`` (49,) and ``s`` (2, 7) are work arrays.
     """
     for r in range(N_RULE):  # dE/df3_r with the weights before the update
         q[r] = (g[0] * w[0, r] + g[1] * w[1, r] + g[2] * w[2, r]) * f3[r]
@@ -162,14 +170,18 @@ def frbf_learn(x1, x2, g, c, b, w, dc, db, dw, f3, q, eta, mom, bmin):
             step = -eta * g[m] * f3[r] + mom * dw[m, r]
             w[m, r] += step
             dw[m, r] = step
+    # per membership j, the sums over its rules (first input: rules 7 j + k, second: 7 k + j),
+    # each in the order k = 0..6 as before, but the 14 sums side by side
     for j in range(N_MF):
-        s0 = 0.0  # rules whose first-input membership is j
-        s1 = 0.0  # rules whose second-input membership is j
-        for k in range(N_MF):
-            s0 += q[j * N_MF + k]
-            s1 += q[k * N_MF + j]
-        _learn_membership(0, j, x1, s0, c, b, dc, db, eta, mom, bmin)
-        _learn_membership(1, j, x2, s1, c, b, dc, db, eta, mom, bmin)
+        s[0, j] = 0.0
+        s[1, j] = 0.0
+    for k in range(N_MF):
+        for j in range(N_MF):
+            s[0, j] += q[j * N_MF + k]
+            s[1, j] += q[k * N_MF + j]
+    for j in range(N_MF):
+        _learn_membership(0, j, x1, s[0, j], c, b, dc, db, eta, mom, bmin)
+        _learn_membership(1, j, x2, s[1, j], c, b, dc, db, eta, mom, bmin)
 
 
 @register_jitable
@@ -284,6 +296,7 @@ def run_design(
     f4 = np.empty(3)
     q = np.empty(N_RULE)
     g = np.empty(3)
+    msum = np.empty((2, N_MF))  # per-membership sums of frbf_learn
     theta = np.zeros(N_THETA)
     P = np.zeros((N_THETA, N_THETA))
     for k in range(N_THETA):
@@ -314,7 +327,7 @@ def run_design(
             if a < 2 and frbf:
                 u[a] = _frbf_pid_axis(
                     e, e1[a], e2[a], u[a], meas[a] - meas_prev[a], c[a], b[a], w[a], dc[a],
-                    db[a], dw[a], f2, f3, f4, q, g, gains, 3 * a, par, dt,
+                    db[a], dw[a], f2, f3, f4, q, g, msum, gains, 3 * a, par, dt,
                 )
             elif a < 2:
                 u[a] = pid_increment(
@@ -545,7 +558,7 @@ def _rotation_terms(n, pos, vel, par, pp, ps, ax, ay, pw, pr, extra):
 
 @register_jitable
 def _frbf_pid_axis(
-    e, e1, e2, u_prev, dy, c, b, w, dc, db, dw, f2, f3, f4, q, g, gains, at, par, dt
+    e, e1, e2, u_prev, dy, c, b, w, dc, db, dw, f2, f3, f4, q, g, msum, gains, at, par, dt
 ):
     """FRBF-PID (Sec. 3.3, Eqs. 22-28) on one sensitive axis; writes its gains at ``at``.
 
@@ -583,7 +596,8 @@ def _frbf_pid_axis(
     for m in range(3):
         if not (lo < 1.0 + f4[m] < hi):
             g[m] = 0.0
-    frbf_learn(x1, x2, g, c, b, w, dc, db, dw, f3, q, par[P_ETA], par[P_MOM], par[P_BMIN])
+    frbf_learn(x1, x2, g, c, b, w, dc, db, dw, f3, q, par[P_ETA], par[P_MOM], par[P_BMIN],
+               msum)
     return u
 
 

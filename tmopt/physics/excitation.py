@@ -6,7 +6,12 @@ import math
 
 import numpy as np
 
-__all__ = ["MultiSine", "sample_times", "ramp_window"]
+__all__ = ["PERIOD_BOUNDS", "MultiSine", "sample_times", "ramp_window"]
+
+#: (shortest, longest) period [s] of a design's sinusoids (Eq. 17; the paper gives no
+#: bounds, docs/decisions.md "The stiffness problem"): the longest is the run length of
+#: Sec. 4.1, the shortest keeps >= 600 samples per period at 10 Hz.
+PERIOD_BOUNDS: tuple[float, float] = (60.0, 1200.0)
 
 
 def sample_times(duration: float, sample_rate: float) -> np.ndarray:
@@ -112,7 +117,7 @@ class MultiSine:
             out += a * (np.sin(arg) - np.sin(self.phase[:, i : i + 1]))
         return out
 
-    def max_abs(self, duration: float = 1200.0, sample_rate: float = 10.0) -> np.ndarray:
+    def max_abs(self, duration: float, sample_rate: float) -> np.ndarray:
         """``max_t |x(t)|`` over the sampling grid of the run (B,): the ``x_max`` of Eq. 20."""
         return np.abs(self.evaluate(sample_times(duration, sample_rate))).max(axis=1)
 

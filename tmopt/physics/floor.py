@@ -41,7 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tmopt.physics.information import equation_noise_sigma
-from tmopt.physics.objectives import PARAMETERS
+from tmopt.physics.objectives import M_WEIGHTS, PARAMETERS
 
 __all__ = ["StiffnessFloor", "stiffness_floor", "near_optimal_motion"]
 
@@ -102,7 +102,7 @@ class StiffnessFloor:
         out = np.sqrt(tail[n0]) * (_MEAN_OF_ABS if statistic == "mean" else 1.0)
         return float(out) if np.ndim(out) == 0 else out
 
-    def m_floor(self, weights: tuple[float, float] = (1 / 60, 1e10)) -> tuple[float, float]:
+    def m_floor(self, weights: tuple[float, float] = M_WEIGHTS) -> tuple[float, float]:
         """``(M, t0)``: the least ``w1 t0 + w2 E[obj2](t0)`` (Eq. 29) and where it is."""
         t0 = np.arange(self.n_steps) / self.sample_rate
         m = weights[0] * t0 + weights[1] * self.convergence_accuracy(t0, "mean")
@@ -110,7 +110,7 @@ class StiffnessFloor:
         return float(m[best]), float(t0[best])
 
     def as_dict(self, t0: float | None = None,
-                weights: tuple[float, float] = (1 / 60, 1e10)) -> dict:  # fmt: skip
+                weights: tuple[float, float] = M_WEIGHTS) -> dict:  # fmt: skip
         """The numbers a run reports (metrics.json ``floor``); ``t0`` adds Eq. 19's floor at
         that convergence time."""
         m, t_m = self.m_floor(weights)

@@ -39,7 +39,7 @@ from scipy.special import gammaln, ndtr
 
 from tmopt.physics import _closed_loop as cl
 from tmopt.physics.identification import regressors_from_result
-from tmopt.physics.objectives import PARAMETERS
+from tmopt.physics.objectives import EPSILON, M_WEIGHTS, PARAMETERS
 
 __all__ = ["equation_noise_sigma", "noise_free", "covariance_trajectory", "predict",
            "convergence_law", "expected_rms_after"]  # fmt: skip
@@ -158,8 +158,8 @@ def predict(
     result,
     sigma_e: float,
     idx: int = 0,
-    eps: float = 1e-10,
-    weights: tuple[float, float] = (1 / 60, 1e10),
+    eps: float = EPSILON,
+    weights: tuple[float, float] = M_WEIGHTS,
 ) -> dict[str, np.ndarray]:
     """Expected Eqs. 18, 19, 29 and final accuracy of the batch's designs, no noise drawn.
 

@@ -4,10 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from tmopt.physics.control import PAPER_RATE
 from tmopt.physics.excitation import MultiSine
 
 __all__ = [
     "PARAMETERS",
+    "EPSILON",
+    "M_WEIGHTS",
     "convergence_index",
     "convergence_time",
     "convergence_accuracy",
@@ -20,6 +23,12 @@ __all__ = [
 
 #: Order of theta (Eq. 14): idx 0 = k1xx, idx 1 = k2xx.
 PARAMETERS: tuple[str, ...] = ("k1xx", "k2xx", "k1yy", "k2yy", "R")
+#: Convergence threshold epsilon of Eq. 18 [s^-2] (Sec. 4.3: 1e-10, 0.1 % of the Table 1
+#: stiffness). Every default threshold in tmopt is this one.
+EPSILON = 1e-10
+#: (weight1 [s^-1], weight2 [s^2]) of Eq. 29's metric M (Sec. 4.4: 1/60 and 1e10): one
+#: minute of convergence time and an RMSE of 1e-10 s^-2 each count 1.
+M_WEIGHTS: tuple[float, float] = (1 / 60, 1e10)
 
 
 def _series(theta_hat: np.ndarray, idx: int) -> np.ndarray:
@@ -32,7 +41,7 @@ def _series(theta_hat: np.ndarray, idx: int) -> np.ndarray:
 
 
 def convergence_index(
-    theta_hat: np.ndarray, idx: int = 0, eps: float = 1e-10, theta0: float = 0.0
+    theta_hat: np.ndarray, idx: int = 0, eps: float = EPSILON, theta0: float = 0.0
 ) -> np.ndarray:
     """First sample n* from which ``|theta_n - theta_{n-1}| <= eps`` for all n >= n* (B,).
 
@@ -51,8 +60,8 @@ def convergence_index(
 def convergence_time(
     theta_hat: np.ndarray,
     idx: int = 0,
-    eps: float = 1e-10,
-    sample_rate: float = 10.0,
+    eps: float = EPSILON,
+    sample_rate: float = PAPER_RATE,
     theta0: float = 0.0,
 ) -> np.ndarray:
     """Eq. 18: ``obj1 = min{t : |theta_n(idx) - theta_{n-1}(idx)| <= eps for all n >= t}``.
@@ -67,7 +76,7 @@ def convergence_accuracy(
     theta_hat: np.ndarray,
     theta_true: float,
     idx: int = 0,
-    eps: float = 1e-10,
+    eps: float = EPSILON,
     theta0: float = 0.0,
 ) -> np.ndarray:
     """Eq. 19: ``obj2 = sqrt(mean_{n >= n*} (theta_n(idx) - theta(idx))^2)`` (RMSE, s^-2).
@@ -89,9 +98,9 @@ def final_accuracy(theta_hat: np.ndarray, theta_true: float, idx: int = 0) -> np
 
 
 def metric_m(
-    obj1: np.ndarray, obj2: np.ndarray, weights: tuple[float, float] = (1 / 60, 1e10)
+    obj1: np.ndarray, obj2: np.ndarray, weights: tuple[float, float] = M_WEIGHTS
 ) -> np.ndarray:
-    """Eq. 29: ``M = weight1 obj1 + weight2 obj2`` (defaults 1/60 s^-1 and 1e10 s^2)."""
+    """Eq. 29: ``M = weight1 obj1 + weight2 obj2`` (default :data:`M_WEIGHTS`)."""
     return weights[0] * np.asarray(obj1) + weights[1] * np.asarray(obj2)
 
 
@@ -132,8 +141,8 @@ def eq20_realised(result) -> np.ndarray:
 def evaluate(
     result,
     idx: int = 0,
-    eps: float = 1e-10,
-    weights: tuple[float, float] = (1 / 60, 1e10),
+    eps: float = EPSILON,
+    weights: tuple[float, float] = M_WEIGHTS,
 ) -> dict[str, np.ndarray]:
     """Objectives of one simulated batch for parameter ``idx`` (0: k1xx, 1: k2xx).
 

@@ -442,6 +442,12 @@ def read_recording(path: str | Path) -> Recording:
     return validate(raw, str(path))
 
 
+def recording_format(path: str | Path) -> Literal["h5", "csv"]:
+    """The format a recording at ``path`` is written in, from its extension (check it
+    before expensive work); :class:`RecordingError` names the allowed extensions."""
+    return _format_of(Path(path))
+
+
 def _format_of(path: Path, fmt: str | None = None) -> Literal["h5", "csv"]:
     suffix = path.suffix.lower()
     by_suffix = {".h5": "h5", ".hdf5": "h5", ".csv": "csv"}.get(suffix)

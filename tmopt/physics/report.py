@@ -8,7 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from tmopt.physics.excitation import MultiSine
+from tmopt.physics.excitation import PERIOD_BOUNDS, MultiSine
+from tmopt.physics.simulator import SimulationConfig
 
 __all__ = ["output_dir", "write_csv", "write_rows", "seed_stats", "fmt_stats",
            "feasible_population", "study_designs", "FIG6_REFERENCES"]  # fmt: skip
@@ -55,8 +56,9 @@ def fmt_stats(values: Sequence[float], fmt: str = ".3g") -> str:
 
 def feasible_population(
     n: int, k: int, seed: int, accel_limit: float = 5e-8, motion_limit: float = 4e-4,
-    periods: tuple[float, float] = (60.0, 1200.0), amplitude_max: float = 2e-4,
-    duration: float = 1200.0, sample_rate: float = 10.0,
+    periods: tuple[float, float] = PERIOD_BOUNDS, amplitude_max: float = 2e-4,
+    duration: float = SimulationConfig.duration,
+    sample_rate: float = SimulationConfig.sample_rate,
 ) -> MultiSine:
     """``n`` k-frequency references that satisfy Eq. 20 *a priori* (on the reference).
 

@@ -125,6 +125,11 @@ def _check_sample_rate(fs: Any) -> None:
 # --------------------------------------------------------------------------- settings
 
 
+def _per_axis(tm1: tuple[float, float], tm2: tuple[float, float]) -> tuple[float, ...]:
+    """Two (x, y) pairs of TM1 and TM2 -> the :data:`AXES` order (TM1 x, TM2 x, TM1 y, TM2 y)."""
+    return (tm1[0], tm2[0], tm1[1], tm2[1])
+
+
 @dataclass(frozen=True)
 class Settings:
     """Run settings; defaults are the paper's (Table 1, Sec. 4.1, Fig. 6 motion) and the
@@ -141,13 +146,15 @@ class Settings:
     spacecraft does not rotate), so their presence reveals nothing.
     """
 
-    duration: float = 1200.0
-    sample_rate: float = 10.0
+    duration: float = SimulationConfig.duration
+    sample_rate: float = SimulationConfig.sample_rate
     excitation: str = "paper"
     noise_scale: float = 1.0
     controller: str = "frbf_pid"
-    stiffness: tuple[float, float, float, float] = (1e-7, 1e-7, 1e-7, 1e-7)
-    bias: tuple[float, float, float, float] = (1e-10, 1e-10, 1e-10, 1e-10)
+    stiffness: tuple[float, float, float, float] = _per_axis(
+        SimulationConfig.stiffness_1, SimulationConfig.stiffness_2)
+    bias: tuple[float, float, float, float] = _per_axis(
+        SimulationConfig.bias_1, SimulationConfig.bias_2)
     ramp_in: float = SimulationConfig.ramp_in
     rls_columns: str | tuple[str, ...] = "sensitive"
     y_axes: str = "drag_free"
@@ -186,7 +193,8 @@ def simulation_config(settings: Settings, geometry: Geometry, **fields: Any) -> 
         stiffness_1=(settings.stiffness[0], settings.stiffness[2]),
         stiffness_2=(settings.stiffness[1], settings.stiffness[3]),
         bias_1=(settings.bias[0], settings.bias[2]), bias_2=(settings.bias[1], settings.bias[3]),
-        geometry=geometry, steady_after=min(300.0, float(settings.duration)),
+        geometry=geometry,
+        steady_after=min(SimulationConfig.steady_after, float(settings.duration)),
         control=ControllerSettings(jacobian=settings.jacobian),
         ramp_in=float(settings.ramp_in), rls_columns=rls if isinstance(rls, str) else tuple(rls),
         **fields,

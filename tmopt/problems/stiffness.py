@@ -57,7 +57,7 @@ from tmopt.metrics.identification import metric_m_at_threshold
 from tmopt.physics import information
 from tmopt.physics import objectives as phys_obj
 from tmopt.physics.control import ControllerSettings
-from tmopt.physics.excitation import MultiSine
+from tmopt.physics.excitation import PERIOD_BOUNDS, MultiSine
 from tmopt.physics.noise import USER_SEEDS, fresh_seeds, heldout_seeds
 from tmopt.physics.scenario import config_at_rate
 from tmopt.physics.simulator import SimulationConfig, SimulationResult, simulate
@@ -126,24 +126,24 @@ class StiffnessProblem(ExpensiveProblem):
         scheme: str = "B",
         n_freq: int = 3,
         amplitude_bounds: Sequence[float] = (1e-6, 2e-4),
-        period_bounds: Sequence[float] = (60.0, 1200.0),
+        period_bounds: Sequence[float] = PERIOD_BOUNDS,
         phase_bounds: Sequence[float] = (0.0, 2 * math.pi),
         key_tm: int = 1,
         noise: str = "fixed",
         noise_seed: int = 0,
         noise_samples: int = 8,
         heldout_seeds: int = 32,
-        epsilon: float = 1e-10,
-        m_weights: Sequence[float] = (1 / 60, 1e10),
-        duration: float = 1200.0,
-        sample_rate: float = 10.0,
+        epsilon: float = phys_obj.EPSILON,
+        m_weights: Sequence[float] = phys_obj.M_WEIGHTS,
+        duration: float = SimulationConfig.duration,
+        sample_rate: float = SimulationConfig.sample_rate,
         controller: str = "frbf_pid",
-        f_max: float = 1e-7,
-        alpha1: float = 0.5,
-        gap: float = 4e-3,
-        alpha2: float = 0.1,
-        stiffness_1: Sequence[float] = (1e-7, 1e-7),
-        stiffness_2: Sequence[float] = (1e-7, 1e-7),
+        f_max: float = SimulationConfig.f_max,
+        alpha1: float = SimulationConfig.alpha1,
+        gap: float = SimulationConfig.gap,
+        alpha2: float = SimulationConfig.alpha2,
+        stiffness_1: Sequence[float] = SimulationConfig.stiffness_1,
+        stiffness_2: Sequence[float] = SimulationConfig.stiffness_2,
         constraints: str = "realised",
         ramp_in: float = SimulationConfig.ramp_in,
         rls_columns: str | Sequence[str] = "sensitive",
@@ -171,7 +171,7 @@ class StiffnessProblem(ExpensiveProblem):
         self.n_heldout = int(heldout_seeds)
         self._fresh_rows = 0  # fresh draws without an evaluator: rows counted here
         self.epsilon = _positive(name, "epsilon", epsilon)
-        self.m_weights = tuple(float(w) for w in m_weights)
+        self.m_weights = _weights(name, m_weights)
         if constraints not in CONSTRAINT_MODES:
             raise ValueError(f"problem {name}: constraints must be one of {CONSTRAINT_MODES}, "
                              f"got {constraints!r}")
@@ -448,6 +448,15 @@ def _positive(problem: str, label: str, value) -> float:
         raise ValueError(f"problem {problem}: {label} must be a finite number > 0, "
                          f"got {value!r}")
     return value
+
+
+def _weights(problem: str, pair) -> tuple[float, float]:
+    """Eq. 29's weights (time, accuracy): two finite numbers > 0."""
+    vals = tuple(float(v) for v in pair) if isinstance(pair, (list, tuple)) else ()
+    if len(vals) != 2 or not all(math.isfinite(v) and v > 0 for v in vals):
+        raise ValueError(f"problem {problem}: m_weights must be two finite numbers > 0, "
+                         f"got {pair!r}")
+    return vals
 
 
 def _interval(problem: str, label: str, pair, minimum: float | None = None):

@@ -18,9 +18,10 @@ from __future__ import annotations
 import numpy as np
 from pymoo.problems import get_problem
 
-from tmopt.problems.base import ConstraintGroup, ExpensiveProblem
+from tmopt.problems.base import ConstraintGroup
 from tmopt.problems.fronts import dascmop as _dascmop
 from tmopt.problems.fronts import front_sample, split_name
+from tmopt.problems.pymoo_problem import PymooProblem
 
 #: Problems whose front is offline here, with their default number of objectives.
 SUITE_PROBLEMS: dict[str, int] = {
@@ -91,7 +92,7 @@ def grouped_constraints(n_constr: int, grouping: str | None) -> list[ConstraintG
     return [ConstraintGroup(f"g{i + 1}", (i,), i) for i in range(n_constr)]
 
 
-class PymooBenchmark(ExpensiveProblem):
+class PymooBenchmark(PymooProblem):
     """A constrained suite problem (``mw1``..``mw14``, C-DTLZ, ``dascmop1``..``dascmop9``).
 
     Args:
@@ -123,11 +124,9 @@ class PymooBenchmark(ExpensiveProblem):
                              f"got {constraint_groups!r}")
         self.front_points = _check_int(key, "front_points", front_points, 10)
         self.grouping = constraint_groups
-        self.inner = _build_inner(key, n_var, n_obj, self.difficulty)
-        super().__init__(n_var=n_var, n_obj=n_obj, n_ieq_constr=self.inner.n_ieq_constr,
-                         xl=self.inner.xl, xu=self.inner.xu, name=key,
-                         constraint_groups=grouped_constraints(self.inner.n_ieq_constr,
-                                                               constraint_groups))
+        inner = _build_inner(key, n_var, n_obj, self.difficulty)
+        super().__init__(inner, name=key, constraint_groups=grouped_constraints(
+            inner.n_ieq_constr, constraint_groups))
 
     @staticmethod
     def _checked_difficulty(key: str, difficulty):
@@ -143,12 +142,6 @@ class PymooBenchmark(ExpensiveProblem):
         except (TypeError, ValueError) as exc:
             raise ValueError(f"problem {key}: {exc}") from None
         return difficulty if isinstance(difficulty, (int, np.integer)) else tuple(difficulty)
-
-    def _evaluate(self, X, out, *args, **kwargs):
-        res = self.inner.evaluate(np.asarray(X, float), return_as_dictionary=True)
-        out["F"] = res["F"]
-        if self.n_ieq_constr:
-            out["G"] = res["G"]
 
     def _calc_pareto_front(self, *args, **kwargs) -> np.ndarray:
         """The offline front (tmopt.problems.fronts); pymoo's own is never called."""

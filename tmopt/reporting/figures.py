@@ -21,6 +21,7 @@ import numpy as np  # noqa: E402
 from tmopt.reporting.runs import RunRecord  # noqa: E402
 from tmopt.reporting.stats import finite  # noqa: E402
 from tmopt.reporting.tables import label  # noqa: E402
+from tmopt.run.plots import log_if_spanning_decades, note_nothing_to_draw  # noqa: E402
 
 SCHEMES = ("A", "B", "C")
 
@@ -57,15 +58,16 @@ def fig8(rows: list[dict], path: Path) -> None:
     for ax, scheme in zip(axes, SCHEMES):
         ax2 = ax.twinx()
         series_of_scheme = _series(rows, scheme)
+        ax.set_title(f"({'abc'[SCHEMES.index(scheme)]}) Scheme {scheme}")
         if not series_of_scheme:
-            ax.text(0.5, 0.5, f"no runs of scheme {scheme}", ha="center",
-                    transform=ax.transAxes)
+            note_nothing_to_draw(ax, f"no runs of scheme {scheme}")
+            ax2.set_yticks([])
+            continue
         for i, (name, series) in enumerate(series_of_scheme.items()):
             _errorbar(ax, series, "heldout_convergence_time", color=f"C{i}",
                       label=f"{name}: time")
             _errorbar(ax2, series, "heldout_convergence_accuracy", color=f"C{i}", ls="--",
                       marker="s", mfc="white", label=f"{name}: accuracy")
-        ax.set_title(f"({'abc'[SCHEMES.index(scheme)]}) Scheme {scheme}")
         ax.set_xlabel("number of frequencies k")
         ax.xaxis.get_major_locator().set_params(integer=True)
         ax.set_ylabel("convergence time TM1 (s), solid")
@@ -94,7 +96,11 @@ def fig9(rows: list[dict], path: Path) -> None:
             i += 1
     ax.set_xlabel("number of frequencies k")
     ax.xaxis.get_major_locator().set_params(integer=True)
-    ax.set_ylabel("M of TM1 (Eq. 29, lower is better)")
+    ax.set_ylabel("M of TM1 [-] (Eq. 29, lower is better)")
+    if not i:
+        note_nothing_to_draw(ax, "no stiffness runs with a scheme and k to draw")
+    else:
+        log_if_spanning_decades(ax, [y for ln in ax.get_lines() for y in ln.get_ydata()])
     ax.set_title("Fig. 9: M per configuration on held-out noise seeds, mean ± std over runs;\n"
                  "dotted: the search draw (x: the chosen design of some run is infeasible)",
                  fontsize=10)
@@ -288,11 +294,18 @@ def benchmark_boxes(rows: list[dict], key: str, title: str, path: Path) -> None:
     for ax, prob in zip(axes.flat, problems):
         sub = [r for r in rows if r["setting"]["problem"] == prob]
         data = [finite(r["values"][key]) for r in sub]
-        names = [label(r["setting"], hide=("problem",)) for r in sub]
+        # how many runs a box holds: runs without a feasible design have no IGD
+        names = [f"{label(r['setting'], hide=('problem',))} (n={len(d)}/"
+                 f"{len(r['values'][key])})" for r, d in zip(sub, data)]
+        ax.set_title(prob)
+        if not any(len(d) for d in data):
+            note_nothing_to_draw(ax, f"no run has a finite {key.upper()} (no feasible "
+                                 "design, or no reference front)")
+            continue
         ax.boxplot([d if len(d) else [np.nan] for d in data], showmeans=True)
         ax.set_xticks(range(1, len(names) + 1), names, rotation=60, ha="right", fontsize=7)
-        ax.set_title(prob)
-        ax.set_ylabel(key.upper())
+        ax.set_ylabel(f"{key.upper()} [-]")
+        log_if_spanning_decades(ax, np.concatenate([d for d in data if len(d)]))
     for ax in list(axes.flat)[len(problems):]:
         ax.axis("off")
     fig.suptitle(title)
@@ -324,7 +337,7 @@ def anytime_curves(rows: list[dict], key: str, path: Path, log_x: bool = False) 
     wide = max(len(lines) for lines in panels.values()) > 6 if panels else False
     fig, axes = plt.subplots(math.ceil(n / cols), cols, squeeze=False,
                              figsize=((9 if wide else 5.5) * cols, 4 * math.ceil(n / cols)))
-    ylabel = "M (TM1) of the chosen design" if key == "M_TM1" else key.upper()
+    ylabel = ("M (TM1) of the chosen design" if key == "M_TM1" else key.upper()) + " [-]"
     for ax, (panel, lines) in zip(axes.flat, sorted(panels.items())):
         colours = plt.get_cmap("tab20" if len(lines) > 10 else "tab10")
         for i, (name, pts) in enumerate(lines.items()):
@@ -335,7 +348,11 @@ def anytime_curves(rows: list[dict], key: str, path: Path, log_x: bool = False) 
         if log_x:
             ax.set_xscale("log")
             ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
-        _log_if_positive(ax)
+        if not ax.get_lines():
+            note_nothing_to_draw(ax, f"no finite {ylabel.removesuffix(' [-]')} in any run "
+                                 "(no feasible design yet)")
+            continue
+        log_if_spanning_decades(ax, [y for ln in ax.get_lines() for y in ln.get_ydata()])
         if len(lines) > 6:  # many settings: the legend beside the panel, not over it
             ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
         else:

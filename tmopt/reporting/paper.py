@@ -31,7 +31,8 @@ PAPER_TABLE3: dict[str, tuple[float, float, float, float, float, float]] = {
     "mgsaea_ipc": (112.1, 1.44e-10, 3.30, 5.75, 5.75, 2.91e-12),
 }
 
-#: Display names, in the paper's row order (qlognehvi is ours, not in the paper).
+#: Display names, in the paper's row order (qlognehvi, kts, drlsaea, pea are ours, not in
+#: the paper).
 ALGORITHM_NAMES: dict[str, str] = {
     "nsga2": "NSGA-II",
     "nsga3": "NSGA-III",
@@ -43,6 +44,9 @@ ALGORITHM_NAMES: dict[str, str] = {
     "mgsaea_star": "MGSAEA*",
     "mgsaea_ipc": "MGSAEA-IPC",
     "qlognehvi": "qLogNEHVI",
+    "kts": "KTS",
+    "drlsaea": "DRL-SAEA",
+    "pea": "PEA",
 }
 
 #: Optimal number of frequencies per scheme read from the paper's Figs. 8-9 (Sec. 4.4).

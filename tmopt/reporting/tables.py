@@ -69,6 +69,13 @@ def _has_front(run: RunRecord) -> float:
     return float(((run.metrics or {}).get("pareto_size") or 0) > 0)
 
 
+def _stage_two(run: RunRecord) -> float | None:
+    """1 if the run reached MGSAEA's stage two, 0 if not, None for an algorithm without
+    stages (``algorithm_summary`` of ``metrics.json``)."""
+    stage = ((run.metrics or {}).get("algorithm_summary") or {}).get("stage_reached")
+    return None if stage is None else float(stage >= 2)
+
+
 def _heldout(quantity: str, stat: str = "mean") -> Callable[[RunRecord], float | None]:
     """The chosen design's held-out statistic (metrics.json ``heldout``)."""
     def get(run: RunRecord) -> float | None:
@@ -123,6 +130,7 @@ HELDOUT_METRICS: tuple[Metric, ...] = (
 COMMON_METRICS: tuple[Metric, ...] = (
     Metric("n_evals", "real evaluations", _metric("n_evals"), sci=False),
     Metric("wall_time_s", "wall time per run (s)", _metric("wall_time_s"), sci=False),
+    Metric("stage_two", "stage two reached", _stage_two),
 )
 STIFFNESS_METRICS = (
     Metric("chosen_feasible", "chosen feasible", _chosen_feasible),
@@ -280,9 +288,9 @@ def _setting_cell(setting: dict, key: str) -> str:
 
 
 def _cell(row: dict, m: Metric) -> str:
-    if m.key in ("chosen_feasible", "has_front"):
-        vals = row["values"][m.key]
-        return f"{int(sum(vals))}/{len(vals)}"
+    if m.key in ("chosen_feasible", "has_front", "stage_two"):
+        vals = [v for v in row["values"][m.key] if v is not None]
+        return f"{int(sum(vals))}/{len(vals)}" if vals else "n/a"
     below = (row.get("below_floor") or {}).get(m.key, 0)
     return fmt_mean_std(row["values"][m.key], m.sci) + (f" ‡{below}" if below else "")
 

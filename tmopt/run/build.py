@@ -8,7 +8,13 @@ from omegaconf import DictConfig, OmegaConf
 
 from tmopt.algorithms.base import Algorithm, AlgorithmConfigError
 from tmopt.problems.base import ExpensiveProblem
-from tmopt.run.config import ConfigError, check_node, constructor_parameters
+from tmopt.run.config import (
+    INT64_MAX,
+    ConfigError,
+    check_node,
+    check_top_level_keys,
+    constructor_parameters,
+)
 
 
 def _kwargs(node: DictConfig) -> dict:
@@ -38,16 +44,19 @@ def build_algorithm(cfg: DictConfig, choice: str = "", surrogate_choice: str = "
             raise ConfigError(f"algorithm={choice} needs a surrogate; set surrogate=<name>")
         scls = check_node("surrogate", cfg.surrogate, surrogate_choice)
         extra["surrogate"] = partial(scls, **_kwargs(cfg.surrogate))
+        _construct("surrogate", cfg.surrogate, surrogate_choice)  # its checks, now: cheap
     return _construct("algorithm", cfg.algorithm, choice, **extra)
 
 
 def build(cfg: DictConfig, choices: dict | None = None) -> tuple[ExpensiveProblem, Algorithm]:
     """Problem and algorithm of ``cfg``; every error is a one-line :class:`ConfigError`."""
     choices = choices or {}
-    if isinstance(cfg.budget, bool) or not isinstance(cfg.budget, int) or cfg.budget < 1:
-        raise ConfigError(f"budget={cfg.budget!r} is invalid: must be an integer >= 1")
-    if isinstance(cfg.seed, bool) or not isinstance(cfg.seed, int) or cfg.seed < 0:
-        raise ConfigError(f"seed={cfg.seed!r} is invalid: must be an integer >= 0")
+    check_top_level_keys(cfg)
+    for key in ("budget", "seed"):
+        value, low = cfg[key], 1 if key == "budget" else 0
+        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= INT64_MAX:
+            raise ConfigError(f"{key}={value!r} is invalid: must be an integer in "
+                              f"[{low}, 2^63 - 1]")
     limit = cfg.get("eval_time_limit")
     if limit is not None and not (isinstance(limit, (int, float)) and 0 < limit < float("inf")):
         raise ConfigError(f"eval_time_limit={limit!r} is invalid: must be null or a number "

@@ -12,7 +12,9 @@ from __future__ import annotations
 import json
 import logging
 import os
+import re
 import sys
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -32,7 +34,8 @@ from tmopt.evaluation.archive import ArchiveError
 from tmopt.files import atomic_write_text
 from tmopt.run.build import build
 from tmopt.run.config import GROUPS, ConfigError, config_hash, did_you_mean, register_configs
-from tmopt.run.run_lock import RunFolderBusy, hold_run_lock
+from tmopt.run.run_lock import RunFolderBusy
+from tmopt.run.runner import FolderOfAnotherRun
 
 log = logging.getLogger("tmopt")
 
@@ -170,9 +173,30 @@ def _check_one(overrides: list[str], multirun: bool, config_name: str = "config"
         cfg = compose(config_name=config_name, overrides=overrides, return_hydra_config=True)
         outdir = cfg.hydra.sweep.dir if multirun else cfg.hydra.run.dir
     except Exception as exc:  # noqa: BLE001 - turn Hydra's report into one line
-        raise ConfigError(_composition_message(exc, overrides)) from None
+        raise ConfigError(_unknown_key_message(exc, overrides, config_name)
+                          or _composition_message(exc, overrides)) from None
     _check_output_dir(Path(outdir))
     build(cfg, dict(cfg.hydra.runtime.choices))
+    if not multirun:  # a sweep's folders are looked at by its sweeper (sweep_resume.py)
+        _check_run_folder(cfg, Path(outdir))
+
+
+def _check_run_folder(cfg: DictConfig, outdir: Path) -> None:
+    """Refuse, before Hydra writes into it, a folder held by a live process or holding a
+    run of another configuration (the runner checks again under the lock)."""
+    from tmopt.run.run_lock import describe_holder, lock_holder
+    from tmopt.run.runner import check_folder_owner
+
+    if not outdir.is_dir():
+        return
+    holder = lock_holder(outdir)
+    if holder is not None:
+        raise RunFolderBusy(f"run folder {outdir} is in use by {describe_holder(holder)}")
+    task = OmegaConf.masked_copy(cfg, [k for k in cfg if k != "hydra"])
+    try:
+        check_folder_owner(outdir, config_hash(task), bool(cfg.get("resume", True)))
+    except FolderOfAnotherRun as exc:
+        raise ConfigError(str(exc)) from None
 
 
 def _check_output_dir(path: Path) -> None:
@@ -182,8 +206,31 @@ def _check_output_dir(path: Path) -> None:
         ancestor = ancestor.parent
     if not ancestor.is_dir():
         raise ConfigError(f"output folder {path} cannot be created: {ancestor} is a file")
-    if not os.access(ancestor, os.W_OK | os.X_OK):
-        raise ConfigError(f"output folder {path} is not writable ({ancestor} is read-only)")
+    try:  # try it (os.access says yes to root even where the file system says no)
+        tempfile.TemporaryDirectory(dir=ancestor, prefix=".tmopt-probe-").cleanup()
+    except OSError as exc:
+        raise ConfigError(f"output folder {path} cannot be created: {ancestor} is not "
+                          f"writable ({exc.strerror or exc})") from None
+
+
+def _unknown_key_message(exc: Exception, overrides: list[str],
+                         config_name: str = "config") -> str | None:
+    """``unknown key a.b; did you mean 'c'? allowed keys: ...`` for Hydra's "Key 'b' is
+    not in struct" (composed once more without that override, to list the keys)."""
+    text = f"{exc} {exc.__cause__ or ''}"
+    found = re.search(r"Could not override '([\w.]+)'", text)
+    if not found or "not in struct" not in text:
+        return None
+    path = found[1]
+    parent, _, key = path.rpartition(".")
+    others = [o for o in overrides if o.split("=", 1)[0].lstrip("+~") != path]
+    try:
+        node = compose(config_name=config_name, overrides=others)
+        node = OmegaConf.select(node, parent) if parent else node
+        keys = [str(k) for k in node if not str(k).startswith("_")]
+    except Exception:  # noqa: BLE001 - fall back to Hydra's own words
+        return None
+    return f"unknown key {path};{did_you_mean(key, keys)} allowed keys: {', '.join(keys)}"
 
 
 def _composition_message(exc: Exception, overrides: list[str]) -> str:
@@ -226,16 +273,17 @@ def run_from_config(cfg: DictConfig) -> dict | None:
     multirun = hc.mode == RunMode.MULTIRUN
     try:
         problem, algorithm = build(cfg, choices)
-        atomic_write_text(outdir / "config.yaml", OmegaConf.to_yaml(cfg, resolve=True))
         from tmopt.run.runner import run_optimisation
 
-        with hold_run_lock(outdir):  # one process per run folder (tmopt/run/run_lock.py)
-            result = run_optimisation(
-                problem, algorithm, budget=cfg.budget, seed=cfg.seed, outdir=outdir,
-                config_hash=config_hash(cfg), resume=cfg.resume, progress=cfg.progress,
-                plots=cfg.plots, extra_metrics=getattr(problem, "extra_metrics", None),
-                eval_time_limit=cfg.eval_time_limit)
-    except RunFolderBusy as exc:  # not a failure of this run: leave its folder alone
+        # the runner holds the folder's lock and writes config.yaml once the folder is
+        # known to be this run's (a refused run leaves another run's folder as it was)
+        result = run_optimisation(
+            problem, algorithm, budget=cfg.budget, seed=cfg.seed, outdir=outdir,
+            config_hash=config_hash(cfg), resume=cfg.resume, progress=cfg.progress,
+            plots=cfg.plots, extra_metrics=getattr(problem, "extra_metrics", None),
+            eval_time_limit=cfg.eval_time_limit,
+            config_text=OmegaConf.to_yaml(cfg, resolve=True))
+    except (RunFolderBusy, FolderOfAnotherRun) as exc:  # leave the folder as it is
         log.error("tmopt: not run: %s", exc)
         if not multirun:
             sys.exit(1)
@@ -353,4 +401,7 @@ def main() -> None:
     except ConfigError as exc:
         print(f"tmopt: error: {exc}", file=sys.stderr)
         sys.exit(2)
+    except RunFolderBusy as exc:
+        print(f"tmopt: not run: {exc}", file=sys.stderr)
+        sys.exit(1)
     _hydra_main()

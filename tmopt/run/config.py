@@ -14,11 +14,13 @@ constructor's own checks name ranges. (Decision recorded in docs/decisions.md.)
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import hashlib
 import importlib
 import inspect
 import json
+import math
 import re
 import types
 import typing
@@ -58,6 +60,25 @@ HASH_NEUTRAL_ARGUMENTS: dict[tuple[str, str, str], Callable[[dict], bool] | None
     ("problem", "tmopt.problems.suites.PymooBenchmark", "front_points"): None,
     ("problem", "tmopt.problems.suites.PymooBenchmark", "n_obj"): _objectives_fixed,
 }
+#: Arguments added later whose earlier behaviour is a value other than their constructor
+#: default (the default being the new behaviour): at that value they stay out of
+#: config_hash too. qLogNEHVI's speed settings (docs/speed.md): ``qlognehvi_reference``
+#: sets these values, so runs made before keep their hash; the GP's refit guard likewise.
+HASH_NEUTRAL_VALUES: dict[tuple[str, str, str], object] = {
+    ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "cached_posterior"): False,
+    ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "init_batch_limit"): None,
+    ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "refit_every"): 1,
+    ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "refit_guard"): None,
+    ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "prune_samples"): None,
+    ("surrogate", "tmopt.surrogates.gp.GPSurrogate", "refit_guard"): None,
+}
+#: For an algorithm that takes no surrogate, the surrogate group changes no number, yet it
+#: is part of every configuration: it is hashed with these arguments at the values that
+#: earlier runs had, so a new default of the surrogate (the GP's refit schedule, docs/
+#: speed.md) leaves the hash of those runs (qLogNEHVI, the evolutionary baselines) alone.
+INERT_SURROGATE_VALUES: dict[str, dict[str, object]] = {
+    "tmopt.surrogates.gp.GPSurrogate": {"refit_every": 1, "refit_guard": None},
+}
 
 
 class ConfigError(ValueError):
@@ -73,6 +94,40 @@ def did_you_mean(word: str, choices: Sequence[str]) -> str:
     return f" did you mean {lowered[close[0]]!r}?" if close else ""
 
 
+#: Integers are stored as int64 (archives, seeds, metrics): larger ones are refused.
+INT64_MAX = 2**63 - 1
+
+
+def check_value(name: str, value) -> None:
+    """What every configured number must be, whatever its parameter: finite (NaN and inf
+    are never a setting) and, for an integer, within int64. Lists are checked element by
+    element. Parameter-specific ranges are checked by the constructors.
+
+    Raises:
+        ConfigError: one line naming ``name``.
+    """
+    if isinstance(value, (list, tuple, ListConfig)):
+        for v in value:
+            check_value(name, v)
+    elif isinstance(value, bool):
+        return
+    elif isinstance(value, int) and abs(value) > INT64_MAX:
+        raise ConfigError(f"{name}={value} is out of range: integers must lie within "
+                          f"+-(2^63 - 1)")
+    elif isinstance(value, float) and not math.isfinite(value):
+        raise ConfigError(f"{name}={value} is invalid: must be a finite number")
+
+
+def check_top_level_keys(cfg: DictConfig) -> None:
+    """Refuse a key at the top of the configuration that is neither a run setting nor a
+    config group (``+foo=1``)."""
+    allowed = [f.name for f in dataclasses.fields(RunConfig)]
+    for key in cfg:
+        if key != "hydra" and key not in allowed:
+            raise ConfigError(f"unknown key {key!r};{did_you_mean(key, allowed)} allowed "
+                              f"top-level keys: {', '.join(allowed)}")
+
+
 @dataclass
 class RunConfig:
     """Run settings (top level of every configuration).
@@ -84,7 +139,8 @@ class RunConfig:
         resume: Resume an interrupted run found in the output folder (by replay).
         progress: One progress line per generation.
         plots: Write PNG plots into the run folder.
-        name: Label of the run or sweep (names the multirun folder).
+        name: Label of a sweep (names its folder ``multirun/<name>``); empty: derived
+            from the sweep's command-line overrides (:func:`sweep_name`).
         eval_time_limit: Seconds allowed per design evaluation; a design that overruns
             is recorded as failed and the run goes on (None: no limit).
     """
@@ -98,7 +154,7 @@ class RunConfig:
     resume: bool = True
     progress: bool = True
     plots: bool = True
-    name: str = "default"
+    name: str = ""
     eval_time_limit: Optional[float] = None  # noqa: UP045 - OmegaConf needs Optional
     extras: dict = field(default_factory=dict)
 
@@ -109,6 +165,37 @@ def run_folder_name(override_dirname: str) -> str:
     return re.sub(r"(^|,)[+~]+", r"\1", override_dirname)
 
 
+#: Overrides that do not change what a sweep computes, left out of its derived name.
+NOT_IN_SWEEP_NAME = ("name", "resume", "progress", "plots", "hydra", "experiment")
+
+
+def sweep_name(name: str, overrides=()) -> str:
+    """``name``, or when empty a folder name derived from a sweep's overrides.
+
+    ``["problem=mw3", "seed=0,1,2", "algorithm=nsga2,nsga3", "problem.n_var=4"]`` ->
+    ``algorithm=nsga2+nsga3_problem=mw3_seed=0+1+2_problem.n_var=4`` (sorted, choices
+    before dotted keys, so the spelling order does not matter; a preset ``experiment=X``
+    keeps ``X`` in front); over 120 characters the tail becomes a short hash. No override
+    at all: ``default``.
+    """
+    if name:
+        return str(name)
+    parts, preset = [], ""
+    for item in overrides or ():
+        key, _, value = str(item).lstrip("+~").partition("=")
+        if key == "experiment":
+            preset = value
+        if key.split(".")[0].split("/")[0] in NOT_IN_SWEEP_NAME:
+            continue
+        value = re.sub(r"[/'\"\\ ]", "-", value.replace(",", "+"))
+        parts.append(f"{key}={value}")
+    parts.sort(key=lambda p: ("." in p.partition("=")[0], p))  # choices before details
+    derived = "_".join(([preset] if preset else []) + parts) or "default"
+    if len(derived) > 120:
+        derived = f"{derived[:111]}_{hashlib.sha256(derived.encode()).hexdigest()[:8]}"
+    return derived
+
+
 def register_configs(*conf_dirs: str | Path) -> None:
     """Register the run schema, the folder resolver and, for every ``/constructor/<class>``
     that an option file under one of ``conf_dirs`` names (tmopt's own configuration, a
@@ -117,6 +204,8 @@ def register_configs(*conf_dirs: str | Path) -> None:
     store.store(name="run_schema", node=RunConfig)
     if not OmegaConf.has_resolver("tmopt_folder"):
         OmegaConf.register_new_resolver("tmopt_folder", run_folder_name)
+    if not OmegaConf.has_resolver("tmopt_sweep_name"):
+        OmegaConf.register_new_resolver("tmopt_sweep_name", sweep_name)
     for target in constructor_targets(*conf_dirs):
         try:
             node = constructor_node(target)
@@ -163,12 +252,13 @@ def _plain(value):
 
 def constructor_parameters(cls) -> dict[str, inspect.Parameter]:
     """Named parameters of ``cls(...)``, following ``**kwargs`` to a base class in the same
-    module.
+    package.
 
     A variant that adds arguments to a class of its own module (MGSAEA-IPC to MGSAEA)
     takes the base's as ``**kwargs`` and passes them on, so each default is defined once;
-    its parameters are then its own ones followed by the base's. A ``**kwargs`` passed to a
-    class elsewhere stays the last entry (the class accepts any key, as before).
+    its parameters are then its own ones followed by the base's; so does an algorithm of its
+    own file built on another's (DRL-SAEA on MGSAEA). A ``**kwargs`` passed to a class
+    elsewhere stays the last entry (the class accepts any key, as before).
     """
     params: dict[str, inspect.Parameter] = {}
     rest = None
@@ -188,16 +278,20 @@ def constructor_parameters(cls) -> dict[str, inspect.Parameter]:
 
 def _init_chain(cls) -> list:
     """``cls.__init__`` and, while it takes ``**kwargs``, the ``__init__`` of the next base
-    class that defines one, if that class is in the same module."""
+    class that defines one, if that class is in the same package (``tmopt.algorithms``)."""
     inits = [k for k in cls.__mro__ if "__init__" in vars(k)]
     chain = [inits[0]]
     for base in inits[1:]:
         takes_rest = any(p.kind is p.VAR_KEYWORD for p in
                          inspect.signature(vars(chain[-1])["__init__"]).parameters.values())
-        if not takes_rest or base.__module__ != chain[-1].__module__:
+        if not takes_rest or _package(base) != _package(chain[-1]):
             break
         chain.append(base)
     return [vars(k)["__init__"] for k in chain]
+
+
+def _package(cls) -> str:
+    return cls.__module__.rpartition(".")[0]
 
 
 # ---- validation of _target_ nodes ----------------------------------------------------
@@ -227,13 +321,18 @@ def check_node(group: str, node: DictConfig | dict, choice: str = "") -> type:
         if key not in params:
             if accepts_any:
                 continue
-            allowed = ", ".join(k for k, p in params.items()
-                                if p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD))
-            raise ConfigError(f"{label}: unknown key {group}.{key}; allowed keys: {allowed}")
+            names = [k for k, p in params.items()
+                     if p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)]
+            raise ConfigError(f"{label}: unknown key {group}.{key};{did_you_mean(key, names)} "
+                              f"allowed keys: {', '.join(names)}")
         expected = hints.get(key)
         if expected is not None and not _matches(value, expected):
             raise ConfigError(f"{label}: {group}.{key}={_show(value)} has the wrong type; "
                               f"expected {_type_name(expected)}")
+        try:
+            check_value(f"{group}.{key}", value)
+        except ConfigError as exc:
+            raise ConfigError(f"{label}: {exc}") from None
     return cls
 
 
@@ -284,17 +383,38 @@ def _show(value) -> str:
     return repr(value)
 
 
+def _hash_inert_surrogate(data: dict) -> None:
+    """Set the surrogate node to :data:`INERT_SURROGATE_VALUES` when the algorithm takes no
+    surrogate (the one ``BUILT_ARGUMENTS`` entry); in place."""
+    alg, sur = data.get("algorithm"), data.get("surrogate")
+    if not (isinstance(alg, dict) and isinstance(sur, dict)) \
+            or sur.get("_target_") not in INERT_SURROGATE_VALUES:
+        return
+    try:
+        takes = "surrogate" in constructor_parameters(get_class(alg.get("_target_", "")))
+    except (ImportError, ValueError, AttributeError):  # unknown class: hash the node as is
+        return
+    if not takes:
+        sur.update(INERT_SURROGATE_VALUES[sur["_target_"]])
+
+
 def config_hash(cfg: DictConfig) -> str:
     """Hash of everything that determines a run's numbers (run-only keys excluded)."""
     data = OmegaConf.to_container(cfg, resolve=True)
     for key in RUN_ONLY_KEYS:
         data.pop(key, None)
     data.pop("hydra", None)
+    _hash_inert_surrogate(data)
     for (group, target, key), applies in HASH_NEUTRAL_ARGUMENTS.items():
         node = data.get(group)
         if isinstance(node, dict) and node.get("_target_") == target and key in node \
                 and (applies is None or applies(node)) \
                 and node[key] == _plain(constructor_parameters(get_class(target))[key].default):
+            node.pop(key)
+    for (group, target, key), value in HASH_NEUTRAL_VALUES.items():
+        node = data.get(group)
+        if isinstance(node, dict) and node.get("_target_") == target and key in node \
+                and node[key] == value:
             node.pop(key)
     blob = json.dumps(data, sort_keys=True, default=str).encode()
     return hashlib.sha256(blob).hexdigest()[:16]

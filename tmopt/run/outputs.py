@@ -4,16 +4,21 @@
 - ``pareto.csv``: the feasible non-dominated set of all real evaluations;
 - ``best.json``: the solution chosen from that set by paper Eq. 21;
 - ``metrics.json``: counts, feasibility, indicators (IGD/IGD+/HV where a reference front
-  or point is known), wall time; written last, so its presence marks a finished run;
+  or point is known), wall time, the versions of Python and of the libraries that can
+  change a run's numbers (:func:`library_versions`); written last, so its presence marks
+  a finished run;
 - ``pareto.png`` and ``convergence.png``.
 """
 
 from __future__ import annotations
 
 import csv
+import functools
+import importlib.metadata
 import io
 import json
 import logging
+import platform
 from pathlib import Path
 
 import numpy as np
@@ -28,18 +33,29 @@ log = logging.getLogger(__name__)
 
 METRICS_FILE = "metrics.json"
 STATUS_COMPLETE = "complete"
+#: Distributions whose version can change a run's numbers: the models (torch, botorch,
+#: gpytorch, linear_operator), the operators and indicators (pymoo, numpy, scipy), the
+#: simulator (numba), the configuration (hydra-core, omegaconf) and the archive (h5py).
+RECORDED_LIBRARIES = ("torch", "botorch", "gpytorch", "linear_operator", "pymoo", "numpy",
+                      "scipy", "numba", "hydra-core", "omegaconf", "h5py")
+
+
+def read_metrics(outdir: Path) -> dict | None:
+    """The complete ``metrics.json`` in ``outdir`` (any configuration), else None."""
+    path = Path(outdir) / METRICS_FILE
+    try:
+        metrics = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    if not isinstance(metrics, dict) or metrics.get("status") != STATUS_COMPLETE:
+        return None
+    return metrics
 
 
 def finished_metrics(outdir: Path, config_hash: str) -> dict | None:
     """The metrics of a finished run of the same configuration in ``outdir``, else None."""
-    path = Path(outdir) / METRICS_FILE
-    if not path.exists():
-        return None
-    try:
-        metrics = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError):
-        return None
-    if metrics.get("status") != STATUS_COMPLETE:
+    metrics = read_metrics(outdir)
+    if metrics is None:
         return None
     if config_hash and metrics.get("config_hash") != config_hash:
         return None
@@ -94,12 +110,32 @@ def write_outputs(problem, algorithm, data: ArchiveData, outdir: Path | None, *,
         "wall_time_s": round(float(wall_time), 3),
         "resumed_from": int(resumed_from),
         "config_hash": config_hash,
+        "algorithm_summary": algorithm.summary(),
+        "versions": library_versions(),
     }
     if extra_metrics is not None:
         metrics.update(extra_metrics(problem, data, pareto, best))
     if outdir is not None:
         _write_files(problem, data, pareto, metrics, Path(outdir), pf, plots)
     return metrics
+
+
+@functools.cache
+def library_versions() -> dict[str, str]:
+    """Python's version and the installed version of each of :data:`RECORDED_LIBRARIES`
+    ("missing" for one not installed), as pip names them, e.g. ``{"torch": "2.13.0+cpu"}``.
+
+    Recorded in every run's ``metrics.json`` because the same code and seed gave other
+    numbers under other library versions (docs/benchmarks-gp.md); the studies' tested set
+    is pinned in ``requirements-lock.txt``.
+    """
+    versions = {"python": platform.python_version()}
+    for name in RECORDED_LIBRARIES:
+        try:
+            versions[name] = importlib.metadata.version(name)
+        except importlib.metadata.PackageNotFoundError:
+            versions[name] = "missing"
+    return versions
 
 
 def final_choice(data: ArchiveData) -> tuple[np.ndarray, int]:

@@ -9,12 +9,15 @@ looked at:
 ========== ==================================================== ============
 state      the folder holds                                      launched?
 ========== ==================================================== ============
-skipped    a complete run of the same configuration              no
+skipped    a complete run of the same configuration, its archive no
+           intact (a finished run whose archive is missing or
+           damaged is run again to restore it: resumed/started)
 running    a run whose lock another live process holds           no
 resumed    an archive of the same configuration, not complete    yes (replay)
 blocked    an archive it cannot resume (another configuration,   yes: the run
-           unreadable, or resume=false over a complete run)      says why
-started    nothing yet                                           yes
+           or resume=false over a complete run)                  says why
+started    nothing yet, or only an unreadable archive (kept      yes
+           aside as archive.h5.unreadable)
 ========== ==================================================== ============
 
 This happens in tmopt's Hydra sweeper (``hydra/sweeper=tmopt``, the default of
@@ -32,11 +35,11 @@ from pathlib import Path
 
 from omegaconf import DictConfig, OmegaConf, open_dict, read_write
 
-from tmopt.evaluation.archive import ArchiveError, read_archive
+from tmopt.evaluation.archive import ArchiveError, read_archive_checked
 from tmopt.run.config import config_hash
 from tmopt.run.outputs import finished_metrics
-from tmopt.run.run_lock import lock_holder
-from tmopt.run.runner import ARCHIVE_FILE
+from tmopt.run.run_lock import describe_holder, lock_holder
+from tmopt.run.runner import ARCHIVE_FILE, FolderOfAnotherRun, check_folder_owner
 
 #: Order of the states in the summary line.
 STATES = ("skipped", "running", "resumed", "blocked", "started")
@@ -72,18 +75,23 @@ def classify_run(target: JobTarget) -> tuple[str, int, str]:
     outdir = target.outdir
     holder = lock_holder(outdir) if outdir.is_dir() else None
     if holder is not None:
-        job = f", SLURM job {holder['slurm_job']}" if holder.get("slurm_job") else ""
-        return "running", 0, f"in use by process {holder.get('pid')} on {holder.get('host')}{job}"
-    if finished_metrics(outdir, target.config_hash) is not None:
-        if target.resume:
-            return "skipped", 0, ""
+        return "running", 0, f"in use by {describe_holder(holder)}"
+    try:
+        check_folder_owner(outdir, target.config_hash, target.resume)
+    except FolderOfAnotherRun:
+        return "blocked", _archived(outdir), "folder of another configuration"
+    finished = finished_metrics(outdir, target.config_hash) is not None
+    if finished and not target.resume:
         return "blocked", 0, "complete, and resume=false starts it over"
     if not (outdir / ARCHIVE_FILE).exists():
-        return "started", 0, ""
+        # a finished run whose archive is gone is run again to restore it (runner.py)
+        return "started", 0, "archive missing" if finished else ""
     try:
-        data = read_archive(outdir / ARCHIVE_FILE)
+        data, damaged = read_archive_checked(outdir / ARCHIVE_FILE)
     except (ArchiveError, OSError) as exc:
-        return "blocked", 0, f"unreadable archive: {exc}"
+        return "started", 0, f"unreadable archive kept aside and started over: {exc}"
+    if finished and not damaged:
+        return "skipped", 0, ""
     found = data.attrs.get("config_hash", "")
     if target.config_hash and found != target.config_hash:
         return "blocked", len(data), "archive of another configuration"
@@ -91,7 +99,15 @@ def classify_run(target: JobTarget) -> tuple[str, int, str]:
         return "blocked", len(data), "resume=false starts it over"
     if len(data) == 0:
         return "started", 0, ""
-    return "resumed", len(data), ""
+    rows = sum(d.stop - d.start for d in damaged)
+    return "resumed", len(data), f"{rows} damaged rows evaluated again" if damaged else ""
+
+
+def _archived(outdir: Path) -> int:
+    try:
+        return len(read_archive_checked(outdir / ARCHIVE_FILE)[0])
+    except (ArchiveError, OSError):
+        return 0
 
 
 def plan_sweep(jobs: Sequence[Sequence[str]],

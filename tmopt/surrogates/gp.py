@@ -30,7 +30,13 @@ Choices (see docs/surrogates.md):
 * Warm start: the last successful hyperparameters are the L-BFGS-B start of the next fit
   when the shapes match; ``max_iter`` caps the iterations; with ``refit_every`` = k the
   hyperparameters are re-optimised on every k-th fit only, and the fits in between
-  condition the GP with the kept hyperparameters on the new data.
+  condition the GP with the kept hyperparameters on the new data, unless the guard
+  (``refit_guard``) finds the new data surprising: if, for some output, the mean squared
+  standardised leave-one-out error of the conditioned GP at the points the last fit did
+  not see, z_i^2 = [K^-1 (y - c)]_i^2 / [K^-1]_ii (Rasmussen & Williams 2006, Eq. 5.12),
+  exceeds ``refit_guard`` times its mean over the other points, the hyperparameters are
+  re-optimised at once. A ratio, so it neither fires on a model that is uniformly
+  imperfect (step-like objectives) nor changes when the targets are rescaled.
 * Prediction: the posterior mean and variance (Rasmussen & Williams 2006, Eqs. 2.25-2.26)
   are computed from the Cholesky factor cached at fit time, with the model's own kernel
   module, without forming a q x q covariance.
@@ -90,6 +96,7 @@ class _Cache:
     const: torch.Tensor   # (b, 1) constant prior mean (standardised units)
     y_mean: torch.Tensor  # (b, 1) outcome standardisation
     y_std: torch.Tensor   # (b, 1)
+    L: torch.Tensor       # (b, n, n) Cholesky factor of K + s^2 I
 
 
 def _is_raw(key: str) -> bool:
@@ -113,6 +120,10 @@ class GPSurrogate(Surrogate):
         refit_every: Re-optimise the hyperparameters on every k-th fit of this object; the
             fits in between keep the last learned hyperparameters and only condition on the
             new data (one Cholesky). 1 = optimise on every fit.
+        refit_guard: With ``refit_every`` > 1: re-optimise before the k-th fit when the
+            mean squared standardised leave-one-out error at the new points exceeds this
+            multiple of the one at the other points, for some output (module docstring);
+            None = no guard.
         max_attempts: BoTorch fit attempts (restarts from seeded prior samples), >= 1.
         fit_mode: ``"per_output"``, ``"batched"`` or ``"model_list"`` (module docstring).
         rbf_fallback: Fall back to :class:`RBFSurrogate` if every GP stage fails.
@@ -123,9 +134,10 @@ class GPSurrogate(Surrogate):
     name = "gp"
 
     def __init__(self, *, kernel: str = "rbf", noise_floor: float = 1e-6, warm_start: bool = True,
-                 max_iter: int = 200, refit_every: int = 1, max_attempts: int = 2,
+                 max_iter: int = 200, refit_every: int = 5, max_attempts: int = 2,
                  fit_mode: str = "per_output",
-                 rbf_fallback: bool = True, seed: int = 0, num_threads: int = 1) -> None:
+                 rbf_fallback: bool = True, seed: int = 0, num_threads: int = 1,
+                 refit_guard: float | None = 4.0) -> None:
         if kernel not in KERNELS:
             raise ValueError(f"kernel={kernel!r} is invalid: must be one of {KERNELS}")
         if fit_mode not in FIT_MODES:
@@ -137,6 +149,11 @@ class GPSurrogate(Surrogate):
         _check_int("max_attempts", max_attempts, 1)
         _check_int("seed", seed, 0)
         _check_int("num_threads", num_threads, 0)
+        if refit_guard is not None and not (isinstance(refit_guard, (int, float))
+                                            and 0.0 < refit_guard < float("inf")):
+            raise ValueError(f"refit_guard={refit_guard!r} is invalid: must be None or a "
+                             f"finite number > 0")
+        self.refit_guard = None if refit_guard is None else float(refit_guard)
         self.kernel, self.noise_floor = kernel, float(noise_floor)
         self.warm_start, self.fit_mode, self.rbf_fallback = warm_start, fit_mode, rbf_fallback
         self.max_iter, self.refit_every, self.max_attempts = max_iter, refit_every, max_attempts
@@ -147,6 +164,8 @@ class GPSurrogate(Surrogate):
         self._fallback: RBFSurrogate | None = None
         self._warm: dict[str, torch.Tensor] | None = None
         self._d: int | None = None
+        self._X_fit: np.ndarray | None = None  # training inputs of the last fit (the guard)
+        self._surprise_seen: float | None = None
         #: Diagnostics of the last fit: stage, L-BFGS-B iterations, warm start, seconds.
         self.fit_info: dict = {}
 
@@ -188,19 +207,48 @@ class GPSurrogate(Surrogate):
                             warm=False, start=state["hyperparameters"])
         self.fit_info = dict(state["fit_info"])
         self._warm, self._since_opt, self._d = state["warm"], int(state["since_opt"]), X.shape[1]
+        self._X_fit = X.copy()
         return self
 
     def _fit(self, X: np.ndarray, Y: np.ndarray) -> None:
         start = time.perf_counter()
+        new = self._new_rows(X)
         self._model, self._caches, self._fallback, self._d = None, [], None, None
         Xt, Yt = torch.as_tensor(X, dtype=_DTYPE), torch.as_tensor(Y, dtype=_DTYPE)
-        if not self._keep_hyperparameters(Xt, Yt):
+        self._surprise_seen = None
+        if not self._keep_hyperparameters(Xt, Yt, new):
             self._fit_stages(X, Y, Xt, Yt)
-        self._d = X.shape[1]
+        self._d, self._X_fit = X.shape[1], X.copy()
         self.fit_info["seconds"] = time.perf_counter() - start
+        if self._surprise_seen is not None:  # the guard's statistic, refit or not
+            self.fit_info["surprise"] = self._surprise_seen
 
-    def _keep_hyperparameters(self, X: torch.Tensor, Y: torch.Tensor) -> bool:
-        """Between re-optimisations (``refit_every`` > 1): condition on the new data only."""
+    def _new_rows(self, X: np.ndarray) -> np.ndarray | None:
+        """Mask of the rows of X that the last fit did not see (None: no last fit)."""
+        if self._X_fit is None or self._X_fit.shape[1] != X.shape[1]:
+            return None
+        seen = {row.tobytes() for row in self._X_fit}
+        return np.array([row.tobytes() not in seen for row in X])
+
+    def _surprise(self, new: np.ndarray) -> float:
+        """Largest (over outputs) ratio of the mean squared standardised leave-one-out
+        error at the ``new`` rows to that at the other rows, z_i = [K^-1 (y - c)]_i /
+        sqrt([K^-1]_ii) (R&W 2006, Eq. 5.12): how much more the new data surprise the
+        model than the data it was fitted on (about 1 when they are alike, whatever the
+        model's misfit: the objectives of the stiffness problem are step-like, and the
+        GP's own LOO z^2 there is ~3 at freshly optimised hyperparameters)."""
+        worst = 0.0
+        for c in self._caches:
+            alpha = c.alpha.squeeze(-1)                               # (b, n)
+            z2 = alpha ** 2 / (c.Linv ** 2).sum(dim=1)                # (b, n)
+            old = z2[:, ~new].mean(dim=1) if (~new).any() else torch.ones(len(z2))
+            worst = max(worst, float((z2[:, new].mean(dim=1) / old.clamp_min(1e-12)).max()))
+        return worst
+
+    def _keep_hyperparameters(self, X: torch.Tensor, Y: torch.Tensor,
+                              new: np.ndarray | None = None) -> bool:
+        """Between re-optimisations (``refit_every`` > 1): condition on the new data only,
+        unless the guard finds the new rows surprising (then re-optimise at once)."""
         if self._warm is None or self._since_opt + 1 >= self.refit_every:
             return False
         try:
@@ -211,6 +259,13 @@ class GPSurrogate(Surrogate):
             return False
         if not self.fit_info["warm_started"]:  # d or m changed: the old values do not fit
             return False
+        if self.refit_guard is not None and new is not None and new.any():
+            surprise = self._surprise_seen = self._surprise(new)
+            if surprise > self.refit_guard:
+                log.info("GP refit before its turn: mean squared standardised LOO error "
+                         "at the new points %.3g x that at the others > refit_guard %.3g",
+                         surprise, self.refit_guard)
+                return False
         self._since_opt += 1
         self.fit_info.update(stage="kept_hypers", noise_floor=self.noise_floor)
         return True
@@ -375,7 +430,7 @@ class GPSurrogate(Surrogate):
             alpha = torch.cholesky_solve((y - const).unsqueeze(-1), L)
             tf = part.outcome_transform
             cache = _Cache(part, Xn, alpha, Linv, const,
-                           tf.means.reshape(-1, 1), tf.stdvs.reshape(-1, 1))
+                           tf.means.reshape(-1, 1), tf.stdvs.reshape(-1, 1), L)
         if not all(torch.isfinite(t).all() for t in (alpha, Linv, const)):
             raise SurrogateError("non-finite GP weights (singular covariance)")
         return cache

@@ -15,6 +15,8 @@ constraint violation ``>= 0`` (0 = feasible); the dominance relation is
 * :func:`nsga2_selection` -- NSGA-II's environmental selection under the constrained-
   dominance principle (CMOES stage one, SSDE), with :func:`crowding_per_front`.
 * :func:`lexicographic_rank` -- turns (front, -crowding) into one tournament fitness.
+* :func:`farthest_points` -- greedy max-min-distance growth of a chosen set (KTA2's DA
+  in KTS, PEA's last-front selection).
 
 Deviation from PlatEMO (documented in docs/algorithms-mgsaea.md): distances for the
 density D(i) and for truncation are computed on objectives min-max normalised over the
@@ -129,6 +131,17 @@ def environmental_selection(fitness: ArrayLike, F: ArrayLike, n: int, *,
         idx = np.flatnonzero(keep)
         keep[idx[truncation(F[idx], len(idx) - n, normalise=normalise)]] = False
     return np.flatnonzero(keep)
+
+
+def farthest_points(D: np.ndarray, chosen: np.ndarray, n_total: int) -> np.ndarray:
+    """Grow the boolean mask ``chosen`` to ``n_total`` by adding, one at a time, the row
+    whose smallest distance ``D`` to the chosen rows is largest (ties: lowest index)."""
+    chosen = chosen.copy()
+    while chosen.sum() < min(n_total, len(D)):
+        rest = np.flatnonzero(~chosen)
+        gap = D[np.ix_(rest, np.flatnonzero(chosen))].min(axis=1)
+        chosen[rest[np.argmax(gap)]] = True
+    return chosen
 
 
 def crowding_per_front(F: np.ndarray, front: np.ndarray) -> np.ndarray:

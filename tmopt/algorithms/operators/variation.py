@@ -3,7 +3,9 @@
 * :func:`tournament` -- K-ary tournament on a fitness (lower is better), as PlatEMO's
   ``TournamentSelection``.
 * :func:`ga_offspring` -- PlatEMO's ``OperatorGA`` (SBX + polynomial mutation) on arrays,
-  with pymoo's operator kernels (MGSAEA, C-TSEA, CMOES).
+  with pymoo's operator kernels (MGSAEA, C-TSEA, CMOES, KTS); ``mutation=False`` gives
+  SBX alone and :func:`polynomial_mutation` mutation alone (KTA2's two offspring streams
+  in KTS, ``OperatorGA`` with ``{1,20,0,0}`` and ``{0,0,1,20}``).
 * :func:`de_offspring` -- DE/rand/1/bin then polynomial mutation on pymoo's kernels
   (PlatEMO's ``OperatorDE``: CMOES with ``operator="de"``, SSDE).
 * :func:`unique_rows` -- drops repeated children before they are evaluated.
@@ -17,6 +19,20 @@ from pymoo.operators.crossover.binx import mut_binomial
 from pymoo.operators.crossover.dex import de_differential
 from pymoo.operators.crossover.sbx import cross_sbx
 from pymoo.operators.mutation.pm import mut_pm
+from scipy.spatial.distance import cdist
+
+#: Designs closer than this (per variable, relative to the bounds) count as the same design.
+SAME_DESIGN_TOL = 1e-9
+
+
+def already_evaluated(X: np.ndarray, seen: np.ndarray, xl: np.ndarray,
+                      xu: np.ndarray) -> np.ndarray:
+    """(n,) bool: rows of ``X`` (n, D) within SAME_DESIGN_TOL (Chebyshev, relative to the
+    bounds) of a row of ``seen`` (m, D) -- a design the algorithm must not pay for twice."""
+    if len(X) == 0 or len(seen) == 0:
+        return np.zeros(len(X), dtype=bool)
+    span = xu - xl
+    return (cdist(X / span, seen / span, metric="chebyshev") <= SAME_DESIGN_TOL).any(axis=1)
 
 
 def tournament(fitness: ArrayLike, n: int, rng: np.random.Generator, k: int = 2) -> np.ndarray:
@@ -44,7 +60,7 @@ def unique_rows(A: ArrayLike, decimals: int | None = None) -> np.ndarray:
 
 def ga_offspring(X: ArrayLike, mates: ArrayLike, xl: np.ndarray, xu: np.ndarray,
                  rng: np.random.Generator, *, crossover_eta: float,
-                 mutation_eta: float) -> np.ndarray:
+                 mutation_eta: float, mutation: bool = True) -> np.ndarray:
     """Two children per mating pair: SBX then polynomial mutation (PlatEMO's OperatorGA).
 
     SBX with probability 1 per pair, each variable crossed with probability 0.5 and the
@@ -59,6 +75,7 @@ def ga_offspring(X: ArrayLike, mates: ArrayLike, xl: np.ndarray, xu: np.ndarray,
         xl, xu: Bounds ``(n_var,)``.
         crossover_eta, mutation_eta: SBX and polynomial-mutation distribution indices
             (the calling algorithm's settings).
+        mutation: False returns the SBX children unmutated.
     Returns:
         Children ``(2 * n_pairs, n_var)``: first children of all pairs, then second ones.
     """
@@ -70,8 +87,17 @@ def ga_offspring(X: ArrayLike, mates: ArrayLike, xl: np.ndarray, xu: np.ndarray,
     Q = cross_sbx(parents, xl, xu, np.full((n_pairs, 1), float(crossover_eta)), half,
                   half.copy(), random_state=rng)
     off = Q.reshape(2 * n_pairs, n_var)
-    return mut_pm(off, xl, xu, np.full(len(off), float(mutation_eta)),
-                  np.full(len(off), min(0.5, 1.0 / n_var)), at_least_once=False,
+    return polynomial_mutation(off, xl, xu, rng, mutation_eta=mutation_eta) if mutation \
+        else off
+
+
+def polynomial_mutation(X: ArrayLike, xl: np.ndarray, xu: np.ndarray,
+                        rng: np.random.Generator, *, mutation_eta: float) -> np.ndarray:
+    """Polynomial mutation (Deb & Goyal 1996) of every row, each variable with
+    probability 1/n_var, pymoo's ``mut_pm`` kernel (PlatEMO's ``OperatorGA`` mutation)."""
+    X = np.asarray(X, dtype=float)
+    return mut_pm(X, xl, xu, np.full(len(X), float(mutation_eta)),
+                  np.full(len(X), min(0.5, 1.0 / X.shape[1])), at_least_once=False,
                   random_state=rng)
 
 

@@ -54,8 +54,9 @@ class ActuationDelay(Effect):
             for taps in (1, 3):
                 cols = []
                 for j in range(1, taps + 1):
-                    d = np.zeros_like(f)
-                    d[j:] = f[:-j] - f[1 : f.size - j + 1]  # f_{n-j} - f_{n-j+1}
+                    # f_{n-j} - f_{n-j+1}, zero where the lag reaches across a gap
+                    d = ctx.data.lagged(f, j) - ctx.data.lagged(f, j - 1)
+                    d[ctx.data.lagged(np.ones_like(f), j) == 0] = 0.0
                     cols.append(Column(f"{self.name}[{a}]c{j}", axis_column(ctx.basis, i, d)))
                 out.append(Candidate(
                     self.name, a, "equation", ["tau"], ["s"], cols, self.plausible,

@@ -60,7 +60,7 @@ from tmopt.mismatch.fit import (
     kinematic_series,
     tone_instrument,
 )
-from tmopt.mismatch.noise_model import SpatialNoise
+from tmopt.mismatch.noise_model import NoiseModel
 from tmopt.physics.geometry import Geometry
 from tmopt.physics.recording import AXES
 from tmopt.physics.simulator import Perturbations
@@ -153,7 +153,7 @@ class Context:
     data: Data
     basis: np.ndarray
     eq_residual: np.ndarray | None = None
-    eq_noise: SpatialNoise | None = None
+    eq_noise: NoiseModel | None = None
 
     @property
     def fb_hat(self) -> np.ndarray:
@@ -179,6 +179,10 @@ class Candidate:
     text: str = ""
     twin: Column | None = None  # the same parameter's prediction in the kinematic group
     n_searched: int = 0  # parameters found by search (counted in the BIC penalty)
+    #: Axis whose motion drives the effect (a coupling's source): identifiability calls
+    #: it "not excited" when that axis has no excitation tones -- its readout is then
+    #: mostly readout noise, which is not motion.
+    source_axis: int | None = None
 
     @property
     def key(self) -> str:
@@ -346,11 +350,12 @@ def kinematic_column(name: str, ctx: Context, a: int, b: int, sign: float = 1.0)
     """Kinematic regressor ``sign h^2 (acc_b,n + acc_b,n-1)/2`` on readout channel a, with
     its excitation-tone part as instrument (closed-loop readout noise is in ``acc_b``)."""
     d = ctx.data
-    arr = np.zeros((4, d.n - 2))
-    inst = np.zeros((4, d.n - 2))
+    rows = d.kin_index
+    arr = np.zeros((4, rows.size))
+    inst = np.zeros((4, rows.size))
     arr[a] = sign * kinematic_series(d, b)
-    inst[a] = tone_instrument(arr[a], d.time[1:-1], d.tones(b))
-    return Column(name, arr, inst)
+    inst[a] = tone_instrument(arr[a], d.time[rows], d.tones(b))
+    return Column(name, arr, inst, tuple(d.tones(b)), a)
 
 
 # --------------------------------------------------------------------------- time profiles

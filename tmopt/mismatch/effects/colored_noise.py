@@ -58,7 +58,18 @@ class ColoredNoise(Effect):
         return {"asd": inj.magnitude, "f_ref_hz": f_ref, "exponent": p, "onset_s": t0,
                 "end_s": finite(t1)}
 
+    def untestable(self, ctx: Context) -> str | None:
+        if ctx.eq_noise is not None and ctx.eq_noise.kind == "smoothed":
+            return ("the noise model is estimated from the recording itself (a coloured "
+                    "spectrum per residual group), so stationary extra noise is part of it; "
+                    "compare with a reference recording of the same instrument, or run with "
+                    "the white noise model (--noise white) if the instrument is known to be "
+                    "white")  # fmt: skip
+        return None
+
     def candidates(self, ctx: Context) -> list[Candidate]:
+        if self.untestable(ctx) is not None:
+            return []
         return [Candidate(self.name, "equation residual", "noise", ["knee_hz", "exponent"],
                           ["Hz", "1"],
                           text=self.explanation)]  # fmt: skip

@@ -42,5 +42,5 @@ class CubicStiffness(Effect):
         return {"k3": inj.magnitude}
 
     def candidates(self, ctx: Context) -> list[Candidate]:
-        return [self.equation_candidate(a, "k3", "m^-2 s^-2", ctx.data.x[i] ** 3, ctx, i,
+        return [self.equation_candidate(a, "k3", "m^-2 s^-2", ctx.data.x_eq[i] ** 3, ctx, i,
                                         self.plausible) for i, a in enumerate(AXES)]  # fmt: skip

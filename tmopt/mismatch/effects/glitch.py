@@ -24,23 +24,29 @@ from tmopt.mismatch.fit import Column, Data, axis_column
 class Glitch(Effect):
     """Transient force on one axis: velocity kick ``dv`` [m s^-1] times a unit-area template.
 
-    Made: option ``shape`` = ``shapelet`` | ``exp``, decay time ``beta`` [s] (default 5 s),
-    starting at ``onset`` (default 0.4 T), applied as its exact average over each sampling
-    interval (:func:`glitch_interval_average`).  Diagnosed: found by a matched filter over
-    onset, width (log grid) and shape in the whitened residual, then fitted as a linear
-    amplitude; a record can hold several (``repeatable``).
+    Made: the LISA Pathfinder shapes of Baghi et al. (PRD 105, 042002 (2022)) as
+    implemented by the LISA consortium's ``lisaglitch`` package: option ``shape`` =
+    ``shapelet`` (n = 1, damping time ``beta``), ``one_sided`` (double exponential, rise
+    ``t_rise``, fall ``beta``), ``two_sided`` (double exponential with an opposite lobe,
+    ``t_rise``, ``beta`` and ``overshoot`` = -D / (A beta), D its displacement parameter),
+    or ``exp`` (one-sided exponential, the ``t_rise -> 0`` limit, analytic); starting at
+    ``onset`` (default 0.4 T), applied as its exact average over each sampling interval
+    (:func:`glitch_interval_average`), so the kick is exact.  Diagnosed: found by a
+    matched filter over onset, width (log grid) and shape (exp, shapelet) in the whitened
+    residual, then fitted as a linear amplitude; a record can hold several (``repeatable``).
     """
 
     name = "glitch"
     position = 11
     parameter, unit, limit, windowed = "dv", "m s^-1", 1e-6, True
-    options = {"beta": 5.0, "shape": "shapelet"}
+    options = {"beta": 5.0, "shape": "shapelet", "t_rise": None, "overshoot": 2.0}
     explanation = ("a transient force (glitch) hits {ch} ({where}) at t0 = {t0:.1f} s with "
                    "decay time {beta:.3g} s ({kind} shape)")  # fmt: skip
     needs = "nothing: a glitch is separable by its time localisation"
     profiled = True
     repeatable = True
     KINDS: ClassVar[tuple[str, ...]] = ("exp", "shapelet")
+    SHAPES: ClassVar[tuple[str, ...]] = ("shapelet", "exp", "one_sided", "two_sided")
     calibration = Calibration("x1", {"beta": 5.0, "shape": "shapelet"}, 1.5e-11, 5.0, 1.5e-10,
                               50.4, "eq")  # fmt: skip
 
@@ -49,11 +55,21 @@ class Glitch(Effect):
         if inj.duration is not None:
             raise ValueError(f"{self.name}: use option 'beta' for the glitch's duration")
         beta = self.option("beta", opt["beta"], 1e-3, b.duration)
-        shape = self.choice("shape", opt["shape"], ("shapelet", "exp"))
+        shape = self.choice("shape", opt["shape"], self.SHAPES)
+        t_rise = None
+        if shape in ("one_sided", "two_sided"):
+            t_rise = self.option("t_rise", 0.25 * beta if opt["t_rise"] is None
+                                 else opt["t_rise"], 1e-4, beta)  # fmt: skip
+        over = self.option("overshoot", opt["overshoot"], 0.0, 100.0)
         t0, _ = self.window(inj, b, onset=0.4 * b.duration)
-        avg = glitch_interval_average(b.time, 1.0 / b.fs, t0, beta, shape)
+        avg = glitch_interval_average(b.time, 1.0 / b.fs, t0, beta, shape, t_rise, over)
         b.series("force", 4)[AXES.index(ch)] += inj.magnitude * avg
-        return {"dv": inj.magnitude, "t0_s": t0, "decay_s": beta, "shape": shape}
+        out = {"dv": inj.magnitude, "t0_s": t0, "decay_s": beta, "shape": shape}
+        if t_rise is not None:
+            out["rise_s"] = t_rise
+        if shape == "two_sided":
+            out["overshoot"] = over
+        return out
 
     def widths(self, data: Data) -> np.ndarray:
         top = min(200.0, 0.05 * data.n * data.dt)
@@ -79,20 +95,20 @@ class Glitch(Effect):
 
     def refine(self, ctx: Context, axis: int, k0: int, beta: float, kind: str):
         """Onset (+-1 s) and width (within the grid's factor 2) maximising the matched-filter
-        statistic: the coarse width grid otherwise leaves a residual that looks like a
-        second glitch."""
+        statistic, with templates on the recording's own clock (gaps included): the coarse
+        width grid otherwise leaves a residual that looks like a second glitch."""
         d = ctx.data
         e = ctx.eq_noise.whiten(ctx.eq_residual)
         span = max(1, int(round(1.0 * d.fs)))
         best = (-1.0, k0, beta)
         for b in beta * 2.0 ** np.linspace(-0.5, 0.5, 11):
-            g = glitch_shape(d.time - d.time[0], b, kind)
-            t = ctx.eq_noise.whiten(axis_column(ctx.basis, axis, g))
-            energy = float(np.sum(t**2))
             for k in range(max(0, k0 - span), min(d.n - 1, k0 + span) + 1):
-                tk = np.roll(t, k, axis=1)
-                tk[:, :k] = 0.0
-                lam = float(np.sum(e * tk)) ** 2 / energy
+                g = glitch_shape(d.time - d.time[k], b, kind)
+                t = ctx.eq_noise.whiten(axis_column(ctx.basis, axis, g))
+                energy = float(np.sum(t**2))
+                if energy <= 0:
+                    continue
+                lam = float(np.sum(e * t)) ** 2 / energy
                 if lam > best[0]:
                     best = (lam, k, float(b))
         return best[1], best[2]
@@ -101,7 +117,9 @@ class Glitch(Effect):
         """Max over axis, width, shape, onset of the matched-filter statistic
         ``(e.t)^2/|t|^2`` on the whitened residual ``e``, with the template ``t`` (the
         glitch on axis a, seen in both f_B-free combinations) whitened by the same noise
-        model, so the statistic is chi^2_1 at every trial under the noise model."""
+        model's stationary filter, so the statistic is chi^2_1 at every trial under the
+        noise model (onsets are sample indices of the gap-free data; the chosen onset is
+        then refined on the recording's clock)."""
         d = ctx.data
         noise = ctx.eq_noise
         e = noise.whiten(ctx.eq_residual)
@@ -113,12 +131,18 @@ class Glitch(Effect):
             for kind in self.KINDS:
                 g = glitch_shape(np.arange(m) * d.dt, beta, kind)
                 for a in range(4):
-                    t = noise.whiten(axis_column(ctx.basis, a, g))
-                    corr = np.fft.irfft(ef * np.conj(np.fft.rfft(t, nfft, axis=1)), nfft,
+                    # the whitening filter is two-sided: the whitened template has a part
+                    # before the onset, wrapped to the end of the circular buffer; the
+                    # circular correlation keeps it
+                    t = noise.whiten_template(axis_column(ctx.basis, a, g), nfft)
+                    corr = np.fft.irfft(ef * np.conj(np.fft.rfft(t, axis=1)), nfft,
                                         axis=1)[:, :m].sum(axis=0)  # fmt: skip
-                    energy = np.cumsum(np.sum(t**2, axis=0))[::-1]  # cut at the record's end
+                    total = float(np.sum(t**2))
+                    if total <= 0:
+                        continue
                     # onsets whose template is mostly cut off by the record's end: skipped
-                    lam = np.where(energy >= 0.5 * energy[0], corr**2 / energy[0], 0.0)
+                    tail = np.cumsum(np.sum(t[:, :m] ** 2, axis=0))[::-1]
+                    lam = np.where(tail >= 0.5 * tail[0], corr**2 / total, 0.0)
                     k = int(np.argmax(lam))
                     trials += m
                     if best is None or lam[k] > best[0]:
@@ -137,20 +161,56 @@ def glitch_shape(t: np.ndarray, beta: float, kind: str) -> np.ndarray:
 
 
 def _glitch_primitive(s: np.ndarray, beta: float, shape: str) -> np.ndarray:
-    """Integral from 0 to s of the unit-area template (0 for s <= 0)."""
+    """Integral from 0 to s of the unit-area ``exp`` template (0 for s <= 0)."""
     u = np.maximum(s, 0.0) / beta
+    return -np.expm1(-u)
+
+
+def _lisaglitch(shape: str, t0: float, beta: float, t_rise: float | None, overshoot: float):
+    """The ``lisaglitch`` object of a unit-kick glitch (acceleration units per unit dv)."""
+    import lisaglitch
+
+    kw = {"inj_point": "tm_12", "t_inj": t0}  # the injection point only labels the glitch
+    if shape == "shapelet":
+        return lisaglitch.IntegratedShapeletGlitch(level=1.0, beta=beta, **kw)
+    if shape == "one_sided":
+        return lisaglitch.IntegratedOneSidedDoubleExpGlitch(t_rise=t_rise, t_fall=beta,
+                                                            level=1.0, **kw)  # fmt: skip
+    # two-sided: net kick -A, so A = -1 for a unit kick; D sets the opposite lobe
+    return lisaglitch.TwoSidedDoubleExpGlitch(t_rise=t_rise, t_fall=beta, level=-1.0,
+                                              displacement=overshoot * beta, **kw)  # fmt: skip
+
+
+def _velocity(shape: str, s_abs: np.ndarray, t0: float, beta: float, t_rise: float | None,
+              overshoot: float) -> np.ndarray:  # fmt: skip
+    """Kick delivered by time ``s_abs`` (absolute times) for a unit-kick glitch."""
     if shape == "exp":
-        return -np.expm1(-u)
-    return 1.0 - (1.0 + u) * np.exp(-u)
+        return _glitch_primitive(s_abs - t0, beta, shape)
+    g = _lisaglitch(shape, t0, beta, t_rise, overshoot)
+    if shape != "two_sided":
+        return g.compute_signal(s_abs)
+    # lisaglitch 2.0.0's IntegratedTwoSidedDoubleExpGlitch is not the integral of
+    # TwoSidedDoubleExpGlitch (they differ by ~2A, checked numerically): integrate the
+    # acceleration shape itself on a fine grid (trapezoid, 64 points per second of rise)
+    end = t0 + 40.0 * beta
+    step = min(t_rise, beta) / 64.0
+    grid = np.arange(t0, end + step, step)
+    acc = g.compute_signal(grid)
+    vel = np.concatenate([[0.0], np.cumsum(0.5 * (acc[1:] + acc[:-1]) * step)])
+    vel /= vel[-1]  # unit kick (level -1 gives +1; the tail beyond 40 beta is ~0)
+    return np.interp(s_abs, grid, vel, left=0.0, right=1.0)
 
 
-def glitch_interval_average(t: np.ndarray, h: float, t0: float, beta: float,
-                            shape: str) -> np.ndarray:  # fmt: skip
-    """Average over ``[t_n, t_n + h)`` of the unit-area LPF glitch template starting at t0.
+def glitch_interval_average(t: np.ndarray, h: float, t0: float, beta: float, shape: str,
+                            t_rise: float | None = None,
+                            overshoot: float = 2.0) -> np.ndarray:  # fmt: skip
+    """Average over ``[t_n, t_n + h)`` of the unit-kick LPF glitch template starting at t0.
 
-    Templates (Baghi et al., PRD 105, 042002 (2022)): ``exp`` = ``e^{-s/b}/b``,
-    ``shapelet`` = ``s e^{-s/b}/b^2`` (s = t - t0 >= 0).  Averages of the exact
-    antiderivative, so the velocity kick (impulse per unit mass) is exact.
+    Shapes (Baghi et al., PRD 105, 042002 (2022), as in ``lisaglitch``): ``shapelet``
+    ``s e^{-s/b}/b^2``; ``one_sided`` ``(e^{-s/tr} - e^{-s/b})/(tr - b)``; ``two_sided``
+    with an opposite lobe; ``exp`` ``e^{-s/b}/b`` (s = t - t0 >= 0).  Differences of the
+    delivered kick at the interval ends, so the total kick is exact.
     """
-    return (_glitch_primitive(t + h - t0, beta, shape) - _glitch_primitive(t - t0, beta,
-                                                                           shape)) / h  # fmt: skip
+    vel = _velocity(shape, np.concatenate([t, [t[-1] + h]]) if t.size else t, t0, beta,
+                    t_rise, overshoot)  # fmt: skip
+    return np.diff(vel) / h

@@ -49,8 +49,9 @@ class StiffnessCrossCoupling(Effect):
         out = []
         for a, b in self.PAIRS:
             ch = f"{AXES[a]}<-{AXES[b]}"
-            c = self.equation_candidate(ch, f"k_{AXES[a]}{AXES[b]}", "s^-2", ctx.data.x[b], ctx,
+            c = self.equation_candidate(ch, f"k_{AXES[a]}{AXES[b]}", "s^-2", ctx.data.x_eq[b], ctx,
                                         a, self.plausible)  # fmt: skip
             c.text = self.explanation.format(ch=AXES[a])
+            c.source_axis = b
             out.append(c)
         return out

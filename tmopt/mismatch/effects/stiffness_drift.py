@@ -50,6 +50,6 @@ class StiffnessDrift(Effect):
     def candidates(self, ctx: Context) -> list[Candidate]:
         t = ctx.data.time - ctx.data.time[0]
         span = max(float(t[-1]), ctx.data.dt)
-        return [self.equation_candidate(a, "kdot", "s^-3", t * ctx.data.x[i], ctx, i,
+        return [self.equation_candidate(a, "kdot", "s^-3", t * ctx.data.x_eq[i], ctx, i,
                                         self.plausible / span)
                 for i, a in enumerate(AXES)]  # fmt: skip

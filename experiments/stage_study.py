@@ -1,0 +1,86 @@
+"""How often MGSAEA's stage two runs: per setting of a sweep, from each run's metrics.json.
+
+    python experiments/stage_study.py multirun/frontier_stage --keys problem,algorithm.threshold
+
+Prints a Markdown table: for every setting of ``--keys`` (complete runs only), the runs,
+how many reached stage two, the median iteration of the switch, the median over runs of
+the smallest and of the median change rate mc (seed paper Eq. 20) each run measured, the
+mean IGD and HV, and the two-sided Wilcoxon rank-sum p of IGD and HV against the setting
+that differs only in ``--reference`` (default: the paper's ``algorithm.threshold=0.001``
+and ``algorithm.gap=20``). The numbers come from ``algorithm_summary`` (MGSAEA.summary), which
+every MGSAEA-family run writes into its metrics.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+from tmopt.reporting.runs import COMPLETE, discover_runs
+from tmopt.reporting.stats import fmt_p, rank_sum
+
+
+def _median(values: list) -> str:
+    vals = [v for v in values if v is not None]
+    return f"{np.median(vals):.3g}" if vals else "n/a"
+
+
+def _mean(values: list) -> str:
+    vals = [v for v in values if v is not None]
+    return f"{np.mean(vals):.4f} ± {np.std(vals, ddof=1):.4f}" if len(vals) > 1 else (
+        f"{vals[0]:.4f}" if vals else "n/a")
+
+
+def stage_rows(sweep: Path, keys: list[str], reference: dict[str, str]) -> list[list[str]]:
+    """One row per setting: key values, runs, stage-two runs, switch iteration, mc, IGD, HV
+    and their p against the reference setting."""
+    groups: dict[tuple, list[dict]] = defaultdict(list)
+    for run in discover_runs(sweep):
+        if run.status == COMPLETE and "stage_reached" in run.metrics.get("algorithm_summary", {}):
+            groups[tuple(run.value(k) for k in keys)].append(run.metrics)
+    rows = []
+    for setting in sorted(groups):
+        runs = groups[setting]
+        ref = tuple(reference.get(k, v) for k, v in zip(keys, setting))
+        theirs = groups.get(ref) if ref != setting else None
+        summaries = [m["algorithm_summary"] for m in runs]
+        mc = [s["mc"] for s in summaries if s["mc"]]
+        tests = [fmt_p(rank_sum([m.get(q) for m in runs], [m.get(q) for m in theirs]))
+                 if theirs else "" for q in ("igd", "hv")]
+        rows.append([*setting, str(len(runs)),
+                     str(sum(s["stage_reached"] >= 2 for s in summaries)),
+                     _median([s["switch_iteration"] for s in summaries]),
+                     _median([m["min"] for m in mc]), _median([m["median"] for m in mc]),
+                     _mean([m.get("igd") for m in runs]), tests[0],
+                     _mean([m.get("hv") for m in runs]), tests[1]])
+    return rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("sweep", type=Path)
+    ap.add_argument("--keys", default="problem,algorithm.threshold",
+                    help="comma list of setting keys (group choices or dotted config keys)")
+    ap.add_argument("--reference", default="algorithm.threshold=0.001,algorithm.gap=20",
+                    help="KEY=VALUE,... of the setting each row is tested against")
+    args = ap.parse_args(argv)
+    if not args.sweep.is_dir():
+        print(f"stage_study: sweep folder {args.sweep} does not exist", file=sys.stderr)
+        return 2
+    keys = args.keys.split(",")
+    reference = dict(item.split("=", 1) for item in args.reference.split(","))
+    header = [*keys, "runs", "stage two", "switch iteration (median)", "min mc (median)",
+              "median mc (median)", "IGD", "p (IGD)", "HV", "p (HV)"]
+    print("| " + " | ".join(header) + " |")
+    print("|" + " --- |" * len(header))
+    for row in stage_rows(args.sweep, keys, reference):
+        print("| " + " | ".join(row) + " |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,58 @@
+"""Collect's figures: units on the axes, log scales where values span decades, a visible
+note instead of an empty panel (synthetic summary rows, no sweep needed)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tmopt.reporting import figures
+
+
+def _axes(monkeypatch, draw) -> list:
+    kept = []
+    monkeypatch.setattr(figures.plt, "close", kept.append)
+    draw()
+    return kept[0].axes
+
+
+def _box_row(problem: str, algorithm: str, igd: list[float]) -> dict:
+    return {"setting": {"problem": problem, "algorithm": algorithm}, "values": {"igd": igd}}
+
+
+def test_benchmark_boxes_log_when_spanning_decades_and_note_when_empty(monkeypatch, tmp_path):
+    rows = [_box_row("mw1", "nsga2", [1e-3, 2e-3]), _box_row("mw1", "ssde", [0.5, 0.8]),
+            _box_row("mw11", "nsga2", [None, None]), _box_row("mw3", "nsga2", [0.1, None])]
+    axes = _axes(monkeypatch, lambda: figures.benchmark_boxes(rows, "igd", "t",
+                                                              tmp_path / "b.png"))
+    mw1, mw11, mw3 = axes[:3]
+    assert mw1.get_yscale() == "log" and mw1.get_ylabel() == "IGD [-]"
+    assert mw3.get_yscale() == "linear"
+    assert [t.get_text() for t in mw3.get_xticklabels()] == ["NSGA-II (n=1/2)"]
+    assert [t.get_text() for t in mw1.get_xticklabels()] == ["NSGA-II (n=2/2)", "SSDE (n=2/2)"]
+    assert [t.get_text() for t in mw11.texts] == [
+        "no run has a finite IGD (no feasible design, or no reference front)"]
+    assert len(mw11.get_yticks()) == 0
+
+
+def test_fig9_without_stiffness_rows_says_so(monkeypatch, tmp_path):
+    axes = _axes(monkeypatch, lambda: figures.fig9([], tmp_path / "f9.png"))
+    assert [t.get_text() for t in axes[0].texts] == [
+        "no stiffness runs with a scheme and k to draw"]
+    assert "[-]" in axes[0].get_ylabel()
+
+
+def test_anytime_panel_without_finite_values_says_so(monkeypatch, tmp_path):
+    row = {"setting": {"problem": "mw11", "algorithm": "nsga2", "evaluations": 100},
+           "igd": (np.nan, np.nan), "n_complete": 1, "n_runs": 1}
+    axes = _axes(monkeypatch, lambda: figures.anytime_curves([row], "igd",
+                                                             tmp_path / "a.png"))
+    assert [t.get_text() for t in axes[0].texts] == [
+        "no finite IGD in any run (no feasible design yet)"]
+
+
+def test_fig8_panel_of_a_scheme_without_runs_has_a_note_and_no_ticks(monkeypatch, tmp_path):
+    axes = _axes(monkeypatch, lambda: figures.fig8([], tmp_path / "f8.png"))
+    panels = [ax for ax in axes if ax.texts]  # the twin accuracy axes carry no note
+    assert [ax.texts[0].get_text() for ax in panels] == [
+        f"no runs of scheme {s}" for s in "ABC"]
+    assert all(len(ax.get_xticks()) == 0 and len(ax.get_yticks()) == 0 for ax in axes)

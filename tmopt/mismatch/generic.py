@@ -1,0 +1,165 @@
+"""Generic, unnamed features: what to say when no catalogue effect is the explanation.
+
+The catalogue (:mod:`tmopt.mismatch.effects`) names physics.  A recording from a real
+instrument will also hold physics the catalogue lacks -- a force step, a line at an
+unrelated frequency, a curved bias change, a stiffness that jumps.  Without an
+alternative, the stepwise selection names the catalogue effect that happens to absorb
+part of such a feature (a step read as "glitch + bias drift"), and a flexible noise model
+swallows the rest: a confident wrong name, the worst outcome.
+
+So the selection also tests a few *shapes* with no physical name, on every axis, with
+their search counted as trials (Bonferroni) and their searched parameters in the BIC
+penalty, like any candidate:
+
+* ``step`` -- a force ``H(t - t0)`` (onset searched);
+* ``stiffness step`` -- ``x_a H(t - t0)``: the axis's stiffness changes at t0;
+* ``curvature`` -- ``(t - t_mid)^2``: a bias that changes non-linearly (the catalogue's
+  drift is linear);
+* ``line`` -- a sinusoid at a searched frequency away from the excitation tones (2
+  columns).
+
+When one of them explains the residual better (larger delta-BIC) than every catalogue
+effect, it enters the model -- so the residual is cleaned and the search goes on -- but it
+is reported as **unexplained**, with what and where ("a step in the force on x1 at t =
+812 s"), never under a catalogue name.  A catalogue effect whose signature is the shape
+(a full-record linear drift vs a curvature, a glitch vs a step) keeps the smaller BIC
+penalty, so the catalogue wins where it fits.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from tmopt.mismatch.effects.base import TMS, Candidate, Context
+from tmopt.mismatch.fit import AXES, Column, axis_column
+
+__all__ = ["GENERIC", "candidates", "N_ONSETS"]
+
+#: The unnamed features' label in candidates and reports.
+GENERIC = "unexplained"
+#: Onsets on the coarse grid (5 %..95 % of the record), then refined between neighbours.
+N_ONSETS = 48
+N_REFINE = 9
+
+
+def _stat(e: np.ndarray, t: np.ndarray) -> float:
+    energy = float(np.sum(t**2))
+    return float(np.sum(e * t)) ** 2 / energy if energy > 0 else 0.0
+
+
+def _onset_search(ctx: Context, shape) -> list[tuple[float, int, float]]:
+    """Best onset per axis of a one-column template ``shape(axis, t0)`` (series (N,)):
+    (statistic, axis, t0)."""
+    d = ctx.data
+    e = ctx.eq_noise.whiten(ctx.eq_residual)
+    t_lo, t_hi = d.time[0], d.time[-1]
+    grid = t_lo + (t_hi - t_lo) * np.linspace(0.05, 0.95, N_ONSETS)
+    step = grid[1] - grid[0]
+    out = []
+    for a in range(4):
+        best = (-1.0, grid[0])
+        for t0 in grid:
+            lam = _stat(e, ctx.eq_noise.whiten(axis_column(ctx.basis, a, shape(a, t0))))
+            if lam > best[0]:
+                best = (lam, t0)
+        for t0 in best[1] + step * np.linspace(-1, 1, N_REFINE):
+            if not t_lo < t0 < t_hi:
+                continue
+            lam = _stat(e, ctx.eq_noise.whiten(axis_column(ctx.basis, a, shape(a, t0))))
+            if lam > best[0]:
+                best = (lam, float(t0))
+        out.append((best[0], a, float(best[1])))
+    return out
+
+
+def _onset_candidates(ctx: Context, kind: str, shape, words: str) -> list[Candidate]:
+    found = _onset_search(ctx, shape)
+    lam, a, t0 = max(found)
+    if lam <= 0:
+        return []
+    col = Column(f"{GENERIC}:{kind}[{AXES[a]}]", axis_column(ctx.basis, a, shape(a, t0)))
+    return [Candidate(GENERIC, AXES[a], "equation", [kind], ["-"], [col], None,
+                      trials=4.0 * (N_ONSETS + N_REFINE), fixed={"feature": kind, "t0_s": t0},
+                      n_searched=1,
+                      text=words.format(ch=AXES[a], where=TMS[AXES[a]], t0=t0))]  # fmt: skip
+
+
+def _steps(ctx: Context) -> list[Candidate]:
+    t = ctx.data.time
+    return _onset_candidates(
+        ctx, "step", lambda a, t0: (t >= t0).astype(float),
+        "unexplained: a lasting step of the force on {ch} ({where}) at t = {t0:.1f} s "
+        "(no catalogue effect is a step)")  # fmt: skip
+
+
+def _stiffness_steps(ctx: Context) -> list[Candidate]:
+    t, x = ctx.data.time, ctx.data.x_eq
+    return _onset_candidates(
+        ctx, "stiffness step", lambda a, t0: x[a] * (t >= t0),
+        "unexplained: the stiffness of {ch} ({where}) changes abruptly at t = {t0:.1f} s "
+        "(the catalogue's stiffness drift is linear)")  # fmt: skip
+
+
+def _curvatures(ctx: Context) -> list[Candidate]:
+    d = ctx.data
+    tc = d.centred_time
+    span = max(float(np.ptp(d.time)), d.dt)
+    series = (tc / span) ** 2
+    out = []
+    for a in range(4):
+        col = Column(f"{GENERIC}:curvature[{AXES[a]}]", axis_column(ctx.basis, a, series))
+        out.append(Candidate(GENERIC, AXES[a], "equation", ["curvature"], ["m s^-2"], [col],
+                             None, fixed={"feature": "curvature"},
+                             text=f"unexplained: the force on {AXES[a]} ({TMS[AXES[a]]}) "
+                                  "changes non-linearly in time (a curved bias; the "
+                                  "catalogue's drift is linear)"))  # fmt: skip
+    return out
+
+
+def _lines(ctx: Context) -> list[Candidate]:
+    """The strongest line on any axis away from the excitation tones (+-2 bins): whitened
+    periodogram of the longest segment projected on each axis's whitened direction."""
+    d = ctx.data
+    a0, b0 = d.longest.start, d.longest.stop
+    m = b0 - a0
+    if m < 64:
+        return []
+    noise = ctx.eq_noise
+    from tmopt.mismatch.noise_model import taper
+
+    win = taper(m, noise.taper_fraction) if noise.tapered else np.ones(m)
+    f = np.fft.rfftfreq(m, d.dt)
+    xw = np.einsum("fij,jf->if", noise._whitener(m), np.fft.rfft(ctx.eq_residual[:, a0:b0] * win,
+                                                                 axis=1))  # fmt: skip
+    dirs = np.einsum("fij,ja->fia", noise._whitener(m), ctx.basis.T)  # (F, 2, 4)
+    dirs = dirs / np.maximum(np.linalg.norm(dirs, axis=1, keepdims=True), 1e-300)
+    proj = np.abs(np.einsum("fia,if->af", np.conj(dirs), xw)) ** 2 * 2 / float(np.sum(win**2))
+    ok = np.ones(f.size, bool)
+    ok[:3] = False
+    df = f[1] - f[0]
+    tones = {t for ax in range(4) for t in d.tones(ax)}
+    for t0 in tones:
+        ok &= np.abs(f - t0) > 2.5 * df
+    if not ok.any():
+        return []
+    proj[:, ~ok] = 0.0
+    a, k = np.unravel_index(int(np.argmax(proj)), proj.shape)
+    f0 = float(f[k])
+    tt = d.time - d.time[0]
+    cols = [Column(f"{GENERIC}:line[{AXES[a]}]{j}",
+                   axis_column(ctx.basis, a, fn(2 * math.pi * f0 * tt)))
+            for j, fn in enumerate((np.sin, np.cos))]  # fmt: skip
+    return [Candidate(GENERIC, AXES[a], "equation", ["line_sin", "line_cos"], ["m s^-2"] * 2,
+                      cols, None, trials=4.0 * float(ok.sum()),
+                      fixed={"feature": "line", "frequency_hz": f0}, n_searched=1,
+                      text=f"unexplained: a force line at {f0:.5g} Hz on {AXES[a]} "
+                           f"({TMS[AXES[a]]}), unrelated to the excitation tones")]  # fmt: skip
+
+
+def candidates(ctx: Context) -> list[Candidate]:
+    """The generic features' best variants for this residual (see the module docstring)."""
+    if ctx.eq_residual is None or ctx.eq_noise is None or ctx.data.n < 64:
+        return []
+    return _steps(ctx) + _stiffness_steps(ctx) + _curvatures(ctx) + _lines(ctx)
