@@ -9,7 +9,13 @@ import pytest
 
 from tmopt.design.information import NoiseLevel, Target, predict
 from tmopt.design.plan import choose
-from tmopt.design.problem import DesignProblem, DesignSpace, _unchecked_refs
+from tmopt.design.problem import (
+    DesignProblem,
+    DesignSpace,
+    _unchecked_refs,
+    line_violation,
+    resolved_tones,
+)
 from tmopt.mismatch.diagnose import Settings, fit_state
 from tmopt.mismatch.effects import EFFECTS
 from tmopt.mismatch.fit import data_from_result, null_basis
@@ -79,7 +85,7 @@ def test_problem_is_vectorised_and_grouped(problem):
     x[:2, -1] = 300.0
     x[2:, -1] = 360.0  # two durations: two simulator batches
     out = problem.evaluate(x, return_as_dictionary=True)
-    assert out["F"].shape == (5, problem.n_obj) and out["G"].shape == (5, 8)
+    assert out["F"].shape == (5, problem.n_obj) and out["G"].shape == (5, 12)
     for i in (0, 3):
         one = problem.evaluate(x[i : i + 1], return_as_dictionary=True)
         np.testing.assert_allclose(one["F"][0], out["F"][i], rtol=1e-9)
@@ -87,8 +93,9 @@ def test_problem_is_vectorised_and_grouped(problem):
     assert problem.objective_names == ["se_k1xx", "ratio_cubic_stiffness",
                                        "ratio_stiffness_cross_coupling", "duration_s"]
     groups = {g.name: (g.indices, g.priority) for g in problem.constraint_groups}
-    assert groups == {"TM1": ((0, 1, 4, 5), 0), "TM2": ((2, 3, 6, 7), 1)}
-    assert sorted(i for g in problem.constraint_groups for i in g.indices) == list(range(8))
+    assert groups == {"TM1": ((0, 1, 4, 5, 8, 10), 0), "TM2": ((2, 3, 6, 7, 9, 11), 1)}
+    assert np.all(out["G"][:, [9, 11]] == -1.0)  # x2, y2 not free: their lines not judged
+    assert sorted(i for g in problem.constraint_groups for i in g.indices) == list(range(12))
 
 
 def test_every_design_is_a_valid_excitation_spec(problem):
@@ -103,7 +110,7 @@ def test_every_design_is_a_valid_excitation_spec(problem):
 def test_choose_prefers_detectable_feasible_then_eq21(problem):
     f = np.array([[1e-10, 0.5, 0.5, 600], [1e-11, 0.01, 0.01, 600], [1e-12, 0.01, 0.01, 600],
                   [1e-10, 0.01, 0.01, 1200]])  # fmt: skip
-    g = np.zeros((4, 8))
+    g = np.zeros((4, 12))
     g[2, 3] = 0.1  # the best one violates Eq. 20
     i, feasible, detect = choose(problem, np.zeros((4, problem.n_var)), f, g)
     assert (i, feasible, detect) == (1, True, True)
@@ -114,3 +121,21 @@ def test_choose_prefers_detectable_feasible_then_eq21(problem):
     i, _, _ = choose(problem, np.zeros((4, problem.n_var)), f, g, k_before=5e-11)
     assert i in (1, 3)  # none is better than before: Eq. 21 on (k1xx SE, time) decides
     assert i == 1  # same k1xx SE, shorter run
+
+
+def test_line_rule_keeps_tones_resolvable():
+    """Two tones closer than two bins of the run merge into one periodogram peak (the
+    diagnosis' line search then builds its instrument at neither); a tone with fewer
+    than two cycles is no line.  The rule flags both, and a design that passes it has
+    every tone among the lines the prediction assumes."""
+    d = 960.0
+    merged = "multisine:;;1e-5@414,1e-5@366;"  # the loop's 6.7x case: 0.3 bin apart
+    apart = "multisine:;;1e-5@414,1e-5@200;"  # 2.5 bins apart
+    slow = "multisine:5e-5@600;;;"  # 1.6 cycles
+    assert line_violation(merged, d)[2] == pytest.approx(2 / (d * (1 / 366 - 1 / 414)) - 1)
+    assert line_violation(merged, d)[2] > 0 and line_violation(apart, d)[2] <= 0
+    assert line_violation(slow, d)[0] == pytest.approx(2 * 600 / d - 1) and \
+        line_violation(slow, d)[0] > 0
+    assert list(line_violation(apart, d)[[0, 1, 3]]) == [-1.0, -1.0, -1.0]  # no tones
+    assert resolved_tones(apart, d)[2] == pytest.approx(sorted([1 / 414, 1 / 200]))
+    assert len(resolved_tones(merged, d)[2]) == 1 and resolved_tones(slow, d)[0] == []

@@ -154,7 +154,8 @@ def plan(problem: DesignProblem, data: Data, pop_size: int = 40, generations: in
     spec = problem.spec(x[i])
     run = problem.simulate([spec], duration)
     after = problem.predictions(run, [spec])[0]
-    return Plan(problem, x[i], spec, duration, before, after, problem.constraints(run)[0],
+    return Plan(problem, x[i], spec, duration, before, after,
+                problem.constraints(run, [spec])[0],
                 problem.objectives(after, duration), feasible, detect, x.shape[0], run)
 
 

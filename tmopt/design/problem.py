@@ -4,7 +4,9 @@ Decision variables: per free axis (x1, x2, y1, y2; option ``axes``), ``tones`` c
 of Eq. 17's multi-sine -- amplitude as a fraction of the largest that Eq. 20 allows a
 priori for that tone, ``min(alpha2 D / (2 k), alpha1 F_max / (k w^2))`` with k tones
 (``|x| <= 2 sum A`` since x(0) = 0; the y gap is :data:`tmopt.physics.scenario.Y_GAP`),
-so every design is a valid excitation spec; log10 of the period [s]; phase [rad] -- and
+so every design is a valid excitation spec; the period as a fraction of the log-period
+range from ``period[0]`` to the longest of at least :data:`MIN_CYCLES` cycles in the
+run (a slower tone is no line the diagnosis finds); phase [rad] -- and
 the identification time (run duration) [s], rounded to ``duration_step`` so that designs
 of one duration share one simulator batch.  Axes that are not free keep the ``base``
 excitation's motion.
@@ -12,8 +14,11 @@ excitation's motion.
 Constraints: Eq. 20 per axis on the *realised* closed-loop motion of the planned run
 (``max |u| <= alpha1 F_max`` and ``max |r| <= alpha2 D``, as
 :func:`tmopt.physics.objectives.eq20_realised` does for the sensitive axes; docs/decisions.md
-"Eq. 20 on the realised motion"), normalised ``value / limit - 1 <= 0``; constraint
-groups TM1 (priority 0, the test mass whose stiffness is identified) and TM2.
+"Eq. 20 on the realised motion"), normalised ``value / limit - 1 <= 0``; and per free
+axis the line rule (:func:`line_violation`: every tone >= 2 cycles in the run and >= 2
+frequency bins from the axis' other tones, so that the diagnosis' line search finds the
+lines the prediction's instruments assume); constraint groups TM1 (priority 0, the test
+mass whose stiffness is identified) and TM2.
 
 Objectives (all minimised): the predicted standard error of k1xx [s^-2]; for each
 suspected effect the diagnosis flagged, the worst over its flagged channels of
@@ -52,6 +57,10 @@ __all__ = ["DesignSpace", "DesignProblem", "AXIS_LIMIT"]
 AXIS_LIMIT = {"x1": REF_LIMIT, "x2": REF_LIMIT, "y1": Y_REF_LIMIT, "y2": Y_REF_LIMIT}
 #: Largest objective value passed to an optimiser (for infinite standard errors).
 F_CAP = 1e30
+#: The line rule of a planned run: every tone at least this many cycles in the run and
+#: this many frequency bins (``1 / duration``) from every other tone of its axis.
+MIN_CYCLES = 2.0
+MIN_BINS = 2.0
 #: alpha1 F_max of Eq. 20 [m s^-2].
 ALPHA1_FMAX = SimulationConfig.alpha1 * SimulationConfig.f_max
 
@@ -87,8 +96,7 @@ class DesignSpace:
         return 3 * self.tones * len(self.axes) + 1
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        per = [(0.0, 1.0), (math.log10(self.period[0]), math.log10(self.period[1])),
-               (0.0, 2 * math.pi)]  # fmt: skip
+        per = [(0.0, 1.0), (0.0, 1.0), (0.0, 2 * math.pi)]
         lo = [b[0] for _ in self.axes for _ in range(self.tones) for b in per]
         hi = [b[1] for _ in self.axes for _ in range(self.tones) for b in per]
         d0, d1 = self.duration
@@ -103,17 +111,21 @@ class DesignSpace:
         """Decision vector -> the excitation spec of ``python -m tmopt.simulate``
         (``multisine:x1;x2;y1;y2``), free axes from ``x``, the others from the base."""
         parts = dict(base_parts)
+        lo = math.log10(self.period[0])
+        hi = math.log10(max(self.period[0], min(self.period[1],
+                                                self.duration_of(x) / MIN_CYCLES)))
         k = 0
         for a in self.axes:
             comps = []
             for _ in range(self.tones):
-                frac, logp, ph = x[k : k + 3]
+                frac, where, ph = x[k : k + 3]
                 k += 3
-                w = 2 * math.pi / 10 ** float(logp)
+                logp = lo + float(where) * (hi - lo)
+                w = 2 * math.pi / 10**logp
                 amp = float(frac) * min(AXIS_LIMIT[a] / (2 * self.tones),
                                         ALPHA1_FMAX / (self.tones * w * w))
                 if amp > 0:
-                    comps.append(f"{amp:.6g}@{10 ** float(logp):.6g}@{float(ph):.6g}")
+                    comps.append(f"{amp:.6g}@{10**logp:.6g}@{float(ph):.6g}")
             parts[a] = ",".join(comps)
         return "multisine:" + ";".join(parts[a] for a in AXES)
 
@@ -169,10 +181,12 @@ class DesignProblem(ExpensiveProblem):
         self.effects = sorted({t.effect for t in self.targets})
         names = ["se_k1xx"] + [f"ratio_{e}" for e in self.effects] + ["duration_s"]
         cons = [f"eq20_{kind}_{a}" for a in AXES for kind in ("force", "position")]
-        # constraint columns: 2 per axis in AXES order (x1, x2, y1, y2)
-        groups = [ConstraintGroup("TM1", (0, 1, 4, 5), 0), ConstraintGroup("TM2", (2, 3, 6, 7), 1)]
+        cons += [f"lines_{a}" for a in AXES]
+        # constraint columns: 2 per axis in AXES order (x1, x2, y1, y2), then one per axis
+        groups = [ConstraintGroup("TM1", (0, 1, 4, 5, 8, 10), 0),
+                  ConstraintGroup("TM2", (2, 3, 6, 7, 9, 11), 1)]  # fmt: skip
         lo, hi = self.space.bounds()
-        super().__init__(n_var=self.space.n_var, n_obj=len(names), n_ieq_constr=8, xl=lo,
+        super().__init__(n_var=self.space.n_var, n_obj=len(names), n_ieq_constr=len(cons), xl=lo,
                          xu=hi, name="next_excitation", constraint_groups=groups,
                          objective_names=names, constraint_names=cons)  # fmt: skip
 
@@ -204,8 +218,10 @@ class DesignProblem(ExpensiveProblem):
             out.append(predict(data, self.basis, self.targets, self.noise, known))
         return out
 
-    def constraints(self, result) -> np.ndarray:
-        """Eq. 20 per axis on the realised run, ``value / limit - 1`` (B, 8)."""
+    def constraints(self, result, specs: Sequence[str]) -> np.ndarray:
+        """Eq. 20 per axis on the realised run, ``value / limit - 1`` (B, 8), then the
+        line rule of every free axis (:func:`line_violation`; B, 4) -- ``specs``: the
+        runs' multi-sine specs."""
         cfg = result.config
         x, u = result.max_abs_position, result.max_abs_command
         cols = []
@@ -213,7 +229,12 @@ class DesignProblem(ExpensiveProblem):
             cols.append(u[:, k] / (cfg.alpha1 * cfg.f_max) - 1)
             cols.append(x[:, k] / AXIS_LIMIT[a] - 1)
         g = np.stack(cols, axis=1)
-        return np.where(result.diverged[:, None], np.maximum(g, 1.0), g)
+        g = np.where(result.diverged[:, None], np.maximum(g, 1.0), g)
+        duration = result.config.duration
+        free = [a in self.space.axes for a in AXES]
+        lines = np.array([[v if f else -1.0 for v, f in zip(line_violation(s, duration), free)]
+                          for s in specs])  # fmt: skip
+        return np.hstack([g, lines])
 
     def objectives(self, pred: Prediction, duration: float) -> np.ndarray:
         row = [pred.se["k1xx"]]
@@ -231,7 +252,7 @@ class DesignProblem(ExpensiveProblem):
             rows = np.flatnonzero(durations == d)
             specs = [self.spec(x[i]) for i in rows]
             res = self.simulate(specs, float(d))
-            g[rows] = self.constraints(res)
+            g[rows] = self.constraints(res, specs)
             for i, pred in zip(rows, self.predictions(res, specs)):
                 f[i] = self.objectives(pred, float(d))
         # an unexcited target has an infinite standard error: a finite cap keeps the
@@ -240,19 +261,46 @@ class DesignProblem(ExpensiveProblem):
         out["G"] = g
 
 
+def _tones_of(spec: str) -> list[list[tuple[float, float]]]:
+    """(amplitude, period [s]) of every component, per axis group of a multi-sine spec."""
+    out = []
+    for group in spec.partition(":")[2].split(";"):
+        comps = [[float(v) for v in c.split("@")[:2]] for c in group.split(",") if c.strip()]
+        out.append([(a, p) for a, p in comps if a > 0])
+    return out
+
+
+def line_violation(spec: str, duration: float) -> np.ndarray:
+    """Per axis (4,): ``max(MIN_CYCLES period / duration, MIN_BINS / (duration min_sep))
+    - 1`` over its tones (<= 0: every line is one the diagnosis' line search resolves --
+    a Hann periodogram peak at >= 2 cycles, refined within +-1 bin; two lines closer than
+    two bins merge into one peak between them, and the instrument built at that
+    frequency misses the motion: the 6.7x error of docs/design.md).  -1 for an axis
+    without tones."""
+    out = np.full(len(AXES), -1.0)
+    for k, comps in enumerate(_tones_of(spec)):
+        if not comps:
+            continue
+        f = np.sort([1.0 / p for _, p in comps])
+        worst = MIN_CYCLES / (duration * f[0])
+        if f.size > 1:
+            worst = max(worst, MIN_BINS / (duration * max(float(np.min(np.diff(f))), 1e-300)))
+        out[k] = worst - 1.0
+    return out
+
+
 def resolved_tones(spec: str, duration: float) -> dict[int, list[float]]:
     """Tones [Hz] per axis index of a multi-sine spec that a periodogram of ``duration``
     resolves as separate lines: at least two cycles in the run, and, strongest first, at
     least two frequency bins (``2 / duration``) from every stronger kept line (the
     diagnosis' line search merges closer ones into one peak)."""
     out: dict[int, list[float]] = {}
-    for k, group in enumerate(spec.partition(":")[2].split(";")):
-        comps = [[float(v) for v in c.split("@")[:2]] for c in group.split(",") if c.strip()]
+    for k, comps in enumerate(_tones_of(spec)):
         kept: list[float] = []
-        for amp, period in sorted(comps, reverse=True):
+        for _, period in sorted(comps, reverse=True):
             f = 1 / period
-            if amp > 0 and 2 * period <= duration and all(abs(f - g) >= 2 / duration
-                                                          for g in kept):  # fmt: skip
+            if MIN_CYCLES * period <= duration and all(abs(f - g) >= MIN_BINS / duration
+                                                       for g in kept):  # fmt: skip
                 kept.append(f)
         out[k] = sorted(kept)
     return out
