@@ -1,7 +1,7 @@
 """Close the loop: concealed effect -> "not identifiable" -> designed excitation -> named.
 
 Usage: python experiments/design_next_loop.py [--seeds 5] [--effects a,b] [--pop-size 20]
-       [--generations 8] [--out DIR]
+       [--generations 8] [--algorithm nsga2] [--budget N] [--out DIR]
 
 For each effect below (one the paper's excitation leaves unexcited or aliased: it needs
 motion of a non-sensitive axis), and each noise seed:
@@ -94,8 +94,9 @@ def one(name: str, seed: int, args) -> dict:
     row["k"] = k
     row["k_err_first"], row["k_se_first"] = _k(dg1, k)
     space = DesignSpace(duration=(600.0, args.max_duration))
-    p = plan_from_diagnosis(dg1, space, pop_size=args.pop_size, generations=args.generations,
-                            seed=seed)  # fmt: skip
+    budget = args.budget or args.pop_size * args.generations
+    p = plan_from_diagnosis(dg1, space, algorithm=args.algorithm, budget=budget,
+                            pop_size=args.pop_size, seed=seed)  # fmt: skip
     row.update(excitation=p.spec, duration=p.duration, feasible=p.feasible,
                all_detectable=p.all_detectable, n_targets=len(p.problem.targets))
     target = Target(name, channel, 1.0)
@@ -164,6 +165,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--effects", default=",".join(CASES))
     ap.add_argument("--pop-size", type=int, default=20)
     ap.add_argument("--generations", type=int, default=8)
+    ap.add_argument("--algorithm", default="nsga2",
+                    help="the design's solver (a name of the algorithm registry)")
+    ap.add_argument("--budget", type=int, default=None,
+                    help="real evaluations of the design (default pop-size x generations)")
     ap.add_argument("--max-duration", type=float, default=1200.0,
                     help="longest second recording [s] (the design's time range is 600..this)")
     ap.add_argument("--out", default="outputs/design_next_loop")

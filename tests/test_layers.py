@@ -12,10 +12,12 @@ LAYERS = [
     {"physics"},
     {"surrogates", "metrics"},
     {"problems", "mismatch"},
-    {"design"},  # next excitation from a diagnosis: a problem built from mismatch's output
     {"evaluation"},
     {"algorithms"},
     {"run"},
+    # next excitation from a diagnosis: a problem built from mismatch's output, solved by
+    # any algorithm of the registry through the runner
+    {"design"},
     {"reporting"},
     {"__main__", "collect", "simulate"},  # entry modules that keep the commands' names
 ]

@@ -32,6 +32,9 @@ def no_work(monkeypatch):
     (["--effects", "gravity"], "--effects"),
     (["--pop-size", "2"], "--pop-size"),
     (["--generations", "0"], "--generations"),
+    (["--algorithm", "nsga22"], "--algorithm"),  # names the registry, "did you mean"
+    (["--algorithm", "mgsaea", "--budget", "50"], "--budget"),  # below its 11 D - 1 start
+    (["--budget", "0"], "--budget"),
 ])  # fmt: skip
 def test_bad_options_one_line_exit_2(tmp_path, capsys, no_work, extra, word):
     rec = tmp_path / "r.h5"

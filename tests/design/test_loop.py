@@ -38,7 +38,7 @@ def test_concealed_effect_is_flagged_then_named_after_the_design(first):
     assert flags[("stiffness_cross_coupling", "x1<-y1")] == "not excited"
     plan = plan_from_diagnosis(dg, DesignSpace(duration=(600.0, 600.0)),
                                effects=["stiffness_cross_coupling"], pop_size=8,
-                               generations=3, seed=1)  # fmt: skip
+                               budget=24, seed=1)  # fmt: skip
     assert plan.feasible and plan.all_detectable
     key = "stiffness_cross_coupling[x1<-y1]"
     assert plan.after.se[key] * plan.z < 1e-6 < plan.before.se[key] * plan.z

@@ -90,7 +90,7 @@ def test_problem_is_vectorised_and_grouped(problem):
         one = problem.evaluate(x[i : i + 1], return_as_dictionary=True)
         np.testing.assert_allclose(one["F"][0], out["F"][i], rtol=1e-9)
         np.testing.assert_allclose(one["G"][0], out["G"][i], rtol=1e-9, atol=1e-12)
-    assert problem.objective_names == ["se_k1xx", "ratio_cubic_stiffness",
+    assert problem.physical_names == ["se_k1xx", "ratio_cubic_stiffness",
                                        "ratio_stiffness_cross_coupling", "duration_s"]
     groups = {g.name: (g.indices, g.priority) for g in problem.constraint_groups}
     assert groups == {"TM1": ((0, 1, 4, 5, 8, 10), 0), "TM2": ((2, 3, 6, 7, 9, 11), 1)}

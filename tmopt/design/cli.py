@@ -15,6 +15,7 @@ import json
 import sys
 from pathlib import Path
 
+from tmopt.design.plan import DEFAULT_ALGORITHM
 from tmopt.physics.recording import AXES, RecordingError, read_recording
 
 __all__ = ["main", "add_design_options", "check_design_options", "space_from", "design"]
@@ -30,9 +31,18 @@ def add_design_options(p: argparse.ArgumentParser) -> None:
                    help="identification time range [s] 'lo,hi' (600,2400)")
     g.add_argument("--effects", default=None,
                    help="only these flagged effects (comma-separated names; default all)")
+    g.add_argument("--algorithm", default=DEFAULT_ALGORITHM,
+                   help="solver: a name of the algorithm registry, as python -m tmopt "
+                        f"algorithm=NAME builds it, surrogate gp ({DEFAULT_ALGORITHM})")
+    g.add_argument("--budget", type=int, default=None,
+                   help="real evaluations (default: --pop-size x --generations)")
     g.add_argument("--pop-size", type=int, default=40, help="NSGA-II population (40)")
     g.add_argument("--generations", type=int, default=30, help="NSGA-II generations (30)")
     g.add_argument("--design-seed", type=int, default=0, help="optimiser seed (0)")
+
+
+def budget_of(args: argparse.Namespace) -> int:
+    return args.pop_size * args.generations if args.budget is None else args.budget
 
 
 def check_design_options(args: argparse.Namespace) -> str | None:
@@ -60,6 +70,30 @@ def check_design_options(args: argparse.Namespace) -> str | None:
         return f"--generations must be in [1, 10000]; got {args.generations}"
     if args.design_seed < 0:
         return f"--design-seed must be >= 0; got {args.design_seed}"
+    return _check_algorithm(args, len(axes))
+
+
+def _check_algorithm(args: argparse.Namespace, n_axes: int) -> str | None:
+    """The solver exists and the budget covers its initial sample (on a problem of the
+    options' size: 3 variables a tone and the duration)."""
+    from types import SimpleNamespace
+
+    from tmopt.algorithms.base import AlgorithmConfigError
+    from tmopt.run.cli import algorithm_from_registry
+    from tmopt.run.config import ConfigError
+
+    budget = budget_of(args)
+    if not 1 <= budget <= 10**7:
+        return f"--budget must be in [1, 10000000]; got {budget}"
+    try:
+        algo = algorithm_from_registry(args.algorithm)
+        if args.algorithm != "nsga2":  # nsga2 takes --pop-size (plan.solve)
+            shape = SimpleNamespace(n_var=3 * args.tones * n_axes + 1, name="next_excitation")
+            algo.check_budget(shape, budget)
+    except ConfigError as exc:
+        return f"--algorithm: {exc}"
+    except AlgorithmConfigError as exc:
+        return f"--budget: {exc}"
     return None
 
 
@@ -78,14 +112,9 @@ def design(dg, args: argparse.Namespace, out: str | Path, source: str = "",
     from tmopt.design.plan import plan_from_diagnosis
 
     effects = None if args.effects is None else args.effects.split(",")
-
-    def progress(gen: int, total: int) -> None:
-        print(f"\rdesign: generation {gen}/{total}", end="", file=sys.stderr, flush=True)
-
-    p = plan_from_diagnosis(dg, space_from(args), effects, pop_size=args.pop_size,
-                            generations=args.generations, seed=args.design_seed,
-                            progress=progress)  # fmt: skip
-    print(file=sys.stderr)
+    p = plan_from_diagnosis(dg, space_from(args), effects, algorithm=args.algorithm,
+                            budget=budget_of(args), pop_size=args.pop_size,
+                            seed=args.design_seed, progress=True)  # fmt: skip
     return report.write(p, out, source or dg.data.source, notes, plots)
 
 

@@ -128,26 +128,56 @@ def initial_designs(problem: DesignProblem, n: int, seed: int) -> np.ndarray:
     return problem.xl + u * (problem.xu - problem.xl)
 
 
-def plan(problem: DesignProblem, data: Data, pop_size: int = 40, generations: int = 30,
-         seed: int = 0, algorithm=None, progress=None) -> Plan:  # fmt: skip
-    """Solve ``problem`` and choose; ``data`` is the recording (for the "before")."""
-    from pymoo.algorithms.moo.nsga2 import NSGA2
+#: The solver when none is named: see docs/design.md, "Which solver".
+DEFAULT_ALGORITHM = "nsga2"
+
+
+def solve(problem: DesignProblem, algorithm=None, budget: int = 1200, seed: int = 0,
+          pop_size: int | None = None, progress: bool = False) -> tuple[np.ndarray, ...]:
+    """Every design ``algorithm`` evaluates on ``problem`` within ``budget`` evaluations:
+    X (n, D), F (n, M) physical objectives (``10**`` what the optimiser saw), G (n, C).
+
+    ``algorithm``: a name of the algorithm registry (``tmopt/conf/algorithm``, built as
+    ``python -m tmopt algorithm=NAME`` builds it, surrogate ``gp``; ``None``:
+    :data:`DEFAULT_ALGORITHM`), run through the framework's runner; or any pymoo
+    algorithm object.  ``pop_size``: the population of ``nsga2`` (which then starts from
+    :func:`initial_designs`); ``progress``: the runner's line per generation."""
+    name = DEFAULT_ALGORITHM if algorithm is None else algorithm
+    if isinstance(name, str):
+        from tmopt.run.cli import algorithm_from_registry
+        from tmopt.run.runner import run_optimisation
+
+        algo = algorithm_from_registry(name)
+        if name == "nsga2":  # its operators, this population, started low (initial_designs)
+            from pymoo.algorithms.moo.nsga2 import NSGA2
+
+            size = algo.pop_size if pop_size is None else pop_size
+            algo = NSGA2(pop_size=size, sampling=initial_designs(problem, size, seed),
+                         crossover=algo.crossover, mutation=algo.mutation,
+                         eliminate_duplicates=True)  # fmt: skip
+        run = run_optimisation(problem, algo, budget=budget, seed=seed, outdir=None,
+                               progress=bool(progress), plots=False)  # fmt: skip
+        a = run.archive
+        ok = ~a.failed
+        return a.X[ok], 10.0 ** a.F[ok], a.G[ok]
     from pymoo.optimize import minimize
 
-    algo = NSGA2(pop_size=pop_size, sampling=initial_designs(problem, pop_size, seed)) \
-        if algorithm is None else algorithm
     xs, fs, gs = [], [], []
 
     def keep(alg):
-        pop = alg.pop
-        xs.append(pop.get("X"))
-        fs.append(pop.get("F"))
-        gs.append(pop.get("G"))
-        if progress is not None:
-            progress(alg.n_gen, generations)
+        xs.append(alg.pop.get("X"))
+        fs.append(alg.pop.get("F"))
+        gs.append(alg.pop.get("G"))
 
-    minimize(problem, algo, ("n_gen", generations), seed=seed, callback=keep, verbose=False)
-    x, f, g = np.vstack(xs), np.vstack(fs), np.vstack(gs)
+    minimize(problem, name, ("n_evals", budget), seed=seed, callback=keep, verbose=False)
+    return np.vstack(xs), 10.0 ** np.vstack(fs), np.vstack(gs)
+
+
+def plan(problem: DesignProblem, data: Data, algorithm=None, budget: int = 1200, seed: int = 0,
+         pop_size: int | None = None, progress: bool = False) -> Plan:  # fmt: skip
+    """Solve ``problem`` (:func:`solve`) and choose; ``data`` is the recording (for the
+    "before")."""
+    x, f, g = solve(problem, algorithm, budget, seed, pop_size, progress)
     before = recorded_prediction(problem, data)
     i, feasible, detect = choose(problem, x, f, g, before.se["k1xx"])
     duration = problem.space.duration_of(x[i])

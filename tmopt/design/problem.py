@@ -20,11 +20,12 @@ frequency bins from the axis' other tones, so that the diagnosis' line search fi
 lines the prediction's instruments assume); constraint groups TM1 (priority 0, the test
 mass whose stiffness is identified) and TM2.
 
-Objectives (all minimised): the predicted standard error of k1xx [s^-2]; for each
-suspected effect the diagnosis flagged, the worst over its flagged channels of
-``sigma / plausible`` (the information model of :mod:`tmopt.design.information` at the
-recording's noise level; below ``1 / z`` the effect becomes detectable at the
-diagnosis' Bonferroni threshold z); and the identification time [s].
+Objectives (all minimised; the optimiser sees their log10): the predicted standard error
+of k1xx [s^-2]; for each suspected effect the diagnosis flagged, the worst over its
+flagged channels of ``sigma / plausible`` (the information model of
+:mod:`tmopt.design.information` at the recording's noise level; below ``1 / z`` the
+effect becomes detectable at the diagnosis' Bonferroni threshold z); and the
+identification time [s].
 """
 
 from __future__ import annotations
@@ -55,7 +56,8 @@ __all__ = ["DesignSpace", "DesignProblem", "AXIS_LIMIT"]
 
 #: alpha2 D of Eq. 20 per axis [m] (x: the paper's 4 mm gap; y: Y_GAP).
 AXIS_LIMIT = {"x1": REF_LIMIT, "x2": REF_LIMIT, "y1": Y_REF_LIMIT, "y2": Y_REF_LIMIT}
-#: Largest objective value passed to an optimiser (for infinite standard errors).
+#: Largest objective value (before the log) passed to an optimiser (for infinite standard
+#: errors).
 F_CAP = 1e30
 #: The line rule of a planned run: every tone at least this many cycles in the run and
 #: this many frequency bins (``1 / duration``) from every other tone of its axis.
@@ -179,7 +181,8 @@ class DesignProblem(ExpensiveProblem):
         self.base = base_parts(self.space.base, self.space.duration[1], sample_rate)
         self.basis = null_basis(self.geometry)
         self.effects = sorted({t.effect for t in self.targets})
-        names = ["se_k1xx"] + [f"ratio_{e}" for e in self.effects] + ["duration_s"]
+        self.physical_names = ["se_k1xx"] + [f"ratio_{e}" for e in self.effects] + ["duration_s"]
+        names = [f"log10_{n}" for n in self.physical_names]
         cons = [f"eq20_{kind}_{a}" for a in AXES for kind in ("force", "position")]
         cons += [f"lines_{a}" for a in AXES]
         # constraint columns: 2 per axis in AXES order (x1, x2, y1, y2), then one per axis
@@ -255,9 +258,12 @@ class DesignProblem(ExpensiveProblem):
             g[rows] = self.constraints(res, specs)
             for i, pred in zip(rows, self.predictions(res, specs)):
                 f[i] = self.objectives(pred, float(d))
-        # an unexcited target has an infinite standard error: a finite cap keeps the
-        # optimiser's crowding distances defined (the ranking is unchanged)
-        out["F"] = np.minimum(f, F_CAP)
+        # the optimiser sees log10 of every objective: standard errors span orders of
+        # magnitude, and a surrogate (the MGSAEA family's GP) or a normalisation by the
+        # archive's range needs them on one scale; an unexcited target has an infinite
+        # standard error: a finite cap keeps crowding distances and surrogate fits
+        # defined (the Pareto ranking is unchanged by either)
+        out["F"] = np.log10(np.minimum(f, F_CAP))
         out["G"] = g
 
 

@@ -75,7 +75,7 @@ def build(plan: Plan, source: str = "", notes: list[str] | None = None) -> dict:
                              "after": _finite(plan.after.se[k])} for k in NOMINAL_REPORTED},
         "targets": targets,
         "constraints": dict(zip(pb.constraint_names, map(float, plan.constraints))),
-        "objectives": dict(zip(pb.objective_names, map(float, plan.objectives))),
+        "objectives": dict(zip(pb.physical_names, map(float, plan.objectives))),
         "free_axes": list(pb.space.axes),
         "designs_evaluated": plan.n_evaluated,
         "model": {"stiffness": list(pb.settings.stiffness), "controller": pb.settings.controller},

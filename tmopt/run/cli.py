@@ -15,8 +15,10 @@ import os
 import re
 import sys
 import tempfile
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import hydra
 from hydra import compose
@@ -36,6 +38,9 @@ from tmopt.run.build import build
 from tmopt.run.config import GROUPS, ConfigError, config_hash, did_you_mean, register_configs
 from tmopt.run.run_lock import RunFolderBusy
 from tmopt.run.runner import FolderOfAnotherRun
+
+if TYPE_CHECKING:
+    from tmopt.algorithms.base import Algorithm
 
 log = logging.getLogger("tmopt")
 
@@ -145,6 +150,24 @@ def option_config(group: str, option: str) -> DictConfig:
     with _hydra_context():
         cfg = compose(config_name="config", overrides=[f"{group}={option}"])
     return cfg[group]
+
+
+def algorithm_from_registry(option: str, overrides: Sequence[str] = ()) -> Algorithm:
+    """The algorithm that ``python -m tmopt algorithm=<option> <overrides>`` would build
+    (its surrogate from the ``surrogate`` group, default ``gp``), to run outside a Hydra
+    job (e.g. on a problem built in code). An unknown option or key is one
+    :class:`ConfigError` line."""
+    from tmopt.run.build import build_algorithm
+
+    _check_group_values("algorithm", [option])
+    args = [f"algorithm={option}", *overrides]
+    try:
+        with _hydra_context():
+            cfg = compose(config_name="config", overrides=args, return_hydra_config=True)
+            choices = dict(cfg.hydra.runtime.choices)
+    except Exception as exc:  # noqa: BLE001 - Hydra's composition errors are multi-line
+        raise ConfigError(_composition_message(exc, args)) from None
+    return build_algorithm(cfg, option, choices.get("surrogate", ""))
 
 
 def _check_group_values(key: str, vals: list[str]) -> None:
