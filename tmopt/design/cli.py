@@ -35,14 +35,18 @@ def add_design_options(p: argparse.ArgumentParser) -> None:
                    help="solver: a name of the algorithm registry, as python -m tmopt "
                         f"algorithm=NAME builds it, surrogate gp ({DEFAULT_ALGORITHM})")
     g.add_argument("--budget", type=int, default=None,
-                   help="real evaluations (default: --pop-size x --generations)")
+                   help="real evaluations (default: nsga2 --pop-size x --generations; "
+                        "otherwise the algorithm's initial sample + 125)")
     g.add_argument("--pop-size", type=int, default=40, help="NSGA-II population (40)")
     g.add_argument("--generations", type=int, default=30, help="NSGA-II generations (30)")
     g.add_argument("--design-seed", type=int, default=0, help="optimiser seed (0)")
 
 
-def budget_of(args: argparse.Namespace) -> int:
-    return args.pop_size * args.generations if args.budget is None else args.budget
+def budget_of(args: argparse.Namespace) -> int | None:
+    """The budget asked for (None: the solver's default, :func:`tmopt.design.plan.solve`)."""
+    if args.budget is not None:
+        return args.budget
+    return args.pop_size * args.generations if args.algorithm == "nsga2" else None
 
 
 def check_design_options(args: argparse.Namespace) -> str | None:
@@ -83,11 +87,11 @@ def _check_algorithm(args: argparse.Namespace, n_axes: int) -> str | None:
     from tmopt.run.config import ConfigError
 
     budget = budget_of(args)
-    if not 1 <= budget <= 10**7:
+    if budget is not None and not 1 <= budget <= 10**7:
         return f"--budget must be in [1, 10000000]; got {budget}"
     try:
         algo = algorithm_from_registry(args.algorithm)
-        if args.algorithm != "nsga2":  # nsga2 takes --pop-size (plan.solve)
+        if args.algorithm != "nsga2" and budget is not None:  # nsga2: --pop-size
             shape = SimpleNamespace(n_var=3 * args.tones * n_axes + 1, name="next_excitation")
             algo.check_budget(shape, budget)
     except ConfigError as exc:

@@ -2,9 +2,9 @@
 
 :func:`plan_from_diagnosis` collects what the recording could not identify (the
 diagnosis' "not excited" / "aliased" list), the noise level it measured and the model it
-identified, builds the :class:`~tmopt.design.problem.DesignProblem`, solves it (NSGA-II
-by default: the objectives are cheap, ~0.1 s a design; any pymoo algorithm of the
-framework can be passed) and picks one design:
+identified, builds the :class:`~tmopt.design.problem.DesignProblem`, solves it (any
+algorithm of the registry, MGSAEA with the GP by default, or any pymoo algorithm) and
+picks one design:
 
 * among the feasible designs (Eq. 20 on every axis of the realised run), those that make
   every target detectable (``z sigma <= plausible``, the diagnosis' own criterion) if
@@ -128,11 +128,14 @@ def initial_designs(problem: DesignProblem, n: int, seed: int) -> np.ndarray:
     return problem.xl + u * (problem.xu - problem.xl)
 
 
-#: The solver when none is named: see docs/design.md, "Which solver".
-DEFAULT_ALGORITHM = "nsga2"
+#: The solver when none is named: MGSAEA with the GP (docs/design.md, "Which solver").
+DEFAULT_ALGORITHM = "mgsaea"
+#: Real evaluations after a surrogate algorithm's initial sample when no budget is given
+#: (MGSAEA: 25 iterations of mu = 5).
+ITERATION_BUDGET = 125
 
 
-def solve(problem: DesignProblem, algorithm=None, budget: int = 1200, seed: int = 0,
+def solve(problem: DesignProblem, algorithm=None, budget: int | None = None, seed: int = 0,
           pop_size: int | None = None, progress: bool = False) -> tuple[np.ndarray, ...]:
     """Every design ``algorithm`` evaluates on ``problem`` within ``budget`` evaluations:
     X (n, D), F (n, M) physical objectives (``10**`` what the optimiser saw), G (n, C).
@@ -140,8 +143,10 @@ def solve(problem: DesignProblem, algorithm=None, budget: int = 1200, seed: int 
     ``algorithm``: a name of the algorithm registry (``tmopt/conf/algorithm``, built as
     ``python -m tmopt algorithm=NAME`` builds it, surrogate ``gp``; ``None``:
     :data:`DEFAULT_ALGORITHM`), run through the framework's runner; or any pymoo
-    algorithm object.  ``pop_size``: the population of ``nsga2`` (which then starts from
-    :func:`initial_designs`); ``progress``: the runner's line per generation."""
+    algorithm object.  ``budget``: real evaluations (None: the algorithm's initial sample
+    plus :data:`ITERATION_BUDGET`; NSGA-II: 30 generations).  ``pop_size``: the population
+    of ``nsga2`` (which then starts from :func:`initial_designs`); ``progress``: the
+    runner's line per generation."""
     name = DEFAULT_ALGORITHM if algorithm is None else algorithm
     if isinstance(name, str):
         from tmopt.run.cli import algorithm_from_registry
@@ -155,6 +160,9 @@ def solve(problem: DesignProblem, algorithm=None, budget: int = 1200, seed: int 
             algo = NSGA2(pop_size=size, sampling=initial_designs(problem, size, seed),
                          crossover=algo.crossover, mutation=algo.mutation,
                          eliminate_duplicates=True)  # fmt: skip
+            budget = 30 * size if budget is None else budget
+        elif budget is None:
+            budget = algo.initial_sample_size(problem) + ITERATION_BUDGET
         run = run_optimisation(problem, algo, budget=budget, seed=seed, outdir=None,
                                progress=bool(progress), plots=False)  # fmt: skip
         a = run.archive
@@ -169,11 +177,13 @@ def solve(problem: DesignProblem, algorithm=None, budget: int = 1200, seed: int 
         fs.append(alg.pop.get("F"))
         gs.append(alg.pop.get("G"))
 
-    minimize(problem, name, ("n_evals", budget), seed=seed, callback=keep, verbose=False)
+    minimize(problem, name, ("n_evals", 1200 if budget is None else budget), seed=seed,
+             callback=keep, verbose=False)  # fmt: skip
     return np.vstack(xs), 10.0 ** np.vstack(fs), np.vstack(gs)
 
 
-def plan(problem: DesignProblem, data: Data, algorithm=None, budget: int = 1200, seed: int = 0,
+def plan(problem: DesignProblem, data: Data, algorithm=None, budget: int | None = None,
+         seed: int = 0,
          pop_size: int | None = None, progress: bool = False) -> Plan:  # fmt: skip
     """Solve ``problem`` (:func:`solve`) and choose; ``data`` is the recording (for the
     "before")."""
