@@ -67,3 +67,17 @@ def test_a_true_cubic_stiffness_keeps_its_name(backend, seed, axis):
     rep = _report(backend, seed, effects=[inj])
     assert [(e["name"], e["channel"]) for e in rep["effects"]] == [("cubic_stiffness", axis)], \
         rep["conclusion"]  # fmt: skip
+
+
+def test_a_large_delay_with_a_drift_gets_both_names():
+    """The issue's foreign-simulator case (a 0.2 s actuation delay with a bias drift, once
+    reported as the drift alone), on the independent simulator: both are named, nothing
+    else is (a regression test: the current selection already finds both; a joint search
+    over pairs was not needed for it)."""
+    backend, seed = "foreign", 514
+    sc = draw_scenario(seed, backend)
+    drift = Injection("bias_drift", MAGNITUDES["bias_drift"]["large"], "x1")
+    drift = scale_to_snr(sc, drift, 20.0, seed, backend)[0]
+    rep = _report(backend, seed, effects=[Injection("actuation_delay", 0.2, "x1"), drift])
+    names = sorted((e["name"], e["channel"]) for e in rep["effects"])
+    assert names == [("actuation_delay", "x1"), ("bias_drift", "x1")], rep["conclusion"]
