@@ -374,16 +374,17 @@ def run_kernel(kernel, ref1, ref2, cfg, seeds) -> np.ndarray:
 
     from tmopt.physics import simulator as S
 
-    if "noise_of" in inspect.signature(kernel.py_func).parameters:
+    params = inspect.signature(kernel.py_func).parameters  # a kernel's own arguments
+    if "noise_of" in params:
         io = S.prepare(ref1, ref2, cfg, seeds)
-        kernel(*[io[k] for k in S._KERNEL_ARGS])
+        kernel(*[io[k] for k in params])
         return io["out_th"]
     out = np.empty((len(seeds), ref1.shape[1], 5))
     for seed in np.unique(seeds):
         rows = np.flatnonzero(seeds == seed)
         io = S.prepare(ref1[rows], ref2[rows], cfg, int(seed))
         io["noise"] = io["noise"].reshape(-1, *io["noise"].shape[-2:])[0]  # (14, N)
-        kernel(*[io[k] for k in S._KERNEL_ARGS if k != "noise_of"])
+        kernel(*[io[k] for k in params if k != "noise_of"])
         out[rows] = io["out_th"]
     return out
 
