@@ -664,9 +664,9 @@ def _record(i, n, pos_n, meas, acc, u, gains, par, ref, out_ch, out_gain, summar
 # model (no perturbation hooks) runs here; batch_kernel sends perturbed runs to run_design.
 
 #: lanes of a group are a multiple of LANE_ALIGN (8 doubles: one AVX-512 register) and at
-#: most GROUP_MAX (the state of 64 lanes, ~0.4 MB, stays in a core's L2 cache)
+#: most GROUP_MAX (the state of 128 lanes, ~0.7 MB, stays in a core's L2 cache)
 LANE_ALIGN = 8
-GROUP_MAX = 64
+GROUP_MAX = 128
 
 
 def group_lanes(n_runs: int, n_threads: int) -> int:
@@ -884,16 +884,19 @@ def _frbf_pid_lanes(
                 f2[i, j, l] = -d * d / (b[i, j, l] * b[i, j, l])
             for l in range(L):
                 f2[i, j, l] = math.exp(f2[i, j, l])
-    for j1 in range(N_MF):  # Eq. 24
-        for j2 in range(N_MF):
-            for l in range(L):
-                f3[j1 * N_MF + j2, l] = f2[0, j1, l] * f2[1, j2, l]
-    for m in range(3):  # Eq. 25, each sum in the order r = 0..48
+    for m in range(3):
         for l in range(L):
             f4[m, l] = 0.0
-        for r in range(N_RULE):
+    # Eqs. 24-25 in one pass over the rules (each of the three sums in the order r = 0..48)
+    for j1 in range(N_MF):
+        for j2 in range(N_MF):
+            r = j1 * N_MF + j2
             for l in range(L):
-                f4[m, l] += w[m, r, l] * f3[r, l]
+                f = f2[0, j1, l] * f2[1, j2, l]
+                f3[r, l] = f
+                f4[0, l] += w[0, r, l] * f
+                f4[1, l] += w[1, r, l] * f
+                f4[2, l] += w[2, r, l] * f
     for m in range(3):
         for l in range(L):
             gains[at + m, l] = frbf_gain(m, f4[m, l], par)
@@ -905,26 +908,34 @@ def _frbf_pid_lanes(
             e[l], e1[l], e2[l], un, u[l], y[l] - y_prev[l], x[0, l], f4[0, l], f4[1, l],
             f4[2, l], par)
         u[l] = un
-    # Eqs. 26-27 (frbf_learn's order per lane)
-    for r in range(N_RULE):
-        for l in range(L):
-            q[r, l] = (g[0, l] * w[0, r, l] + g[1, l] * w[1, r, l] + g[2, l] * w[2, r, l]) \
-                * f3[r, l]
-    for m in range(3):
-        for r in range(N_RULE):
-            for l in range(L):
-                step = -eta * g[m, l] * f3[r, l] + mom * dw[m, r, l]
-                w[m, r, l] += step
-                dw[m, r, l] = step
+    # Eqs. 26-27 in one pass over the rules (frbf_learn's operations and sums' orders per
+    # lane): dE/df3 with the weights before the update, the weights' steps, and the sums
+    # per membership (rule j1 7 + j2 adds to membership j1 of x1 and j2 of x2, in the
+    # order of the other index)
     for i in range(2):
         for j in range(N_MF):
             for l in range(L):
                 msum[i, j, l] = 0.0
-    for k in range(N_MF):
-        for j in range(N_MF):
+    for m in range(3):
+        for l in range(L):
+            q[m, l] = -eta * g[m, l]  # q's first rows: the factors -eta dE/df4_m
+    for j1 in range(N_MF):
+        for j2 in range(N_MF):
+            r = j1 * N_MF + j2
             for l in range(L):
-                msum[0, j, l] += q[j * N_MF + k, l]
-                msum[1, j, l] += q[k * N_MF + j, l]
+                f = f3[r, l]
+                s = (g[0, l] * w[0, r, l] + g[1, l] * w[1, r, l] + g[2, l] * w[2, r, l]) * f
+                msum[0, j1, l] += s
+                msum[1, j2, l] += s
+                step = q[0, l] * f + mom * dw[0, r, l]
+                w[0, r, l] += step
+                dw[0, r, l] = step
+                step = q[1, l] * f + mom * dw[1, r, l]
+                w[1, r, l] += step
+                dw[1, r, l] = step
+                step = q[2, l] * f + mom * dw[2, r, l]
+                w[2, r, l] += step
+                dw[2, r, l] = step
     for i in range(2):
         for j in range(N_MF):
             for l in range(L):
