@@ -3,8 +3,12 @@
 Every step function here is ``register_jitable``: numba compiles it into the batched
 kernel, while a plain Python call runs the very same source in the interpreter.  The
 per-design reference loop of the benchmark (``run_design`` called from Python) is hence
-the same model, line for line, as the compiled batch.  All compiled code lives in this one
-file because numba's on-disk cache only watches the file of the cached function.
+the same model, line for line, as the compiled batch.  The batch kernel runs the nominal model
+in lock-step groups (``run_group``: the run is the SIMD lane, each lane doing
+``run_design``'s operations in the same order, so the same bits); ``run_design`` itself
+runs the perturbed model and is the reference the groups are tested against.  All
+compiled code lives in this one file because numba's on-disk cache only watches the file
+of the cached function.
 
 Units are SI per unit mass throughout: positions m, forces m s^-2, stiffness s^-2.
 """
