@@ -110,7 +110,8 @@ def test_group_lanes_layout():
     assert cl.group_lanes(100, 1) == 104  # one group, 4 padding lanes
     assert cl.group_lanes(100, 2) == 56  # a group per thread
     assert cl.group_lanes(1, 2) == 8
+    assert cl.group_lanes(0, 2) == 8  # an empty batch: no group runs
     assert cl.group_lanes(1000, 2) == 128  # capped: 8 groups
-    for n, threads in [(1, 1), (7, 16), (100, 16), (333, 2), (3200, 4)]:
+    for n, threads in [(0, 1), (1, 1), (7, 16), (100, 16), (333, 2), (3200, 4)]:
         lanes = cl.group_lanes(n, threads)
         assert lanes % cl.LANE_ALIGN == 0 and cl.LANE_ALIGN <= lanes <= cl.GROUP_MAX

@@ -678,7 +678,7 @@ def group_lanes(n_runs: int, n_threads: int) -> int:
     LANE_ALIGN and at most GROUP_MAX, as few padding lanes as that allows."""
     groups = max(min(n_threads, n_runs), -(-n_runs // GROUP_MAX), 1)
     per = -(-n_runs // groups)
-    return -(-per // LANE_ALIGN) * LANE_ALIGN
+    return max(-(-per // LANE_ALIGN), 1) * LANE_ALIGN
 
 
 @register_jitable
