@@ -651,13 +651,19 @@ def _record(i, n, pos_n, meas, acc, u, gains, par, ref, out_ch, out_gain, summar
         if abs(u[a]) > summary[i, SUM_UMAX + a]:
             summary[i, SUM_UMAX + a] = abs(u[a])
     if record:
-        for a in range(4):
-            out_ch[a, i, n] = pos_n[a]
-            out_ch[4 + a, i, n] = meas[a]
-            out_ch[8 + a, i, n] = acc[a]
-            out_ch[12 + a, i, n] = u[a]
-        for k in range(N_GAIN):
-            out_gain[k, i, n] = gains[k]
+        _store_channels(i, n, pos_n, meas, acc, u, gains, out_ch, out_gain)
+
+
+@register_jitable
+def _store_channels(i, n, pos_n, meas, acc, u, gains, out_ch, out_gain):
+    """Sample n of run i into the recorded channels (layout: N_CH) and gains (N_GAIN)."""
+    for a in range(4):
+        out_ch[a, i, n] = pos_n[a]
+        out_ch[4 + a, i, n] = meas[a]
+        out_ch[8 + a, i, n] = acc[a]
+        out_ch[12 + a, i, n] = u[a]
+    for k in range(N_GAIN):
+        out_gain[k, i, n] = gains[k]
 
 
 # ---- the lock-step kernel: a group of runs advanced together, one lane per run ----------
@@ -691,6 +697,8 @@ def run_group(
     The model and the order of every operation are run_design's with ``pp[PP_ON] == 0``;
     lanes past ``nl`` repeat the last run and are never written.  A run that diverges stops
     being written (its lane keeps computing); the group stops when all its runs have.
+    The summaries and divergence checks run over the lanes; only the writes into
+    ``theta_hat`` and the recorded channels go run by run.
     """
     n_steps = ref1.shape[1]
     dt = par[P_DT]
@@ -753,18 +761,24 @@ def run_group(
     nz = np.empty((14, L))
     ref = np.zeros((4, L))
     psi_scale = np.array([par[P_SX], par[P_SX], par[P_SY], par[P_SY], 1.0])
-    # one run's values for _record (scalar layout)
+    # one run's values for _store_channels (scalar layout)
     pos_1 = np.empty(4)
     meas_1 = np.empty(4)
     acc_1 = np.empty(4)
     u_1 = np.empty(4)
     gains_1 = np.empty(N_GAIN)
-    ref_1 = np.zeros(4)
     code = np.zeros(L, dtype=np.int64)
     last = np.full(L, n_steps - 1, dtype=np.int64)
-    alive = np.zeros(L, dtype=np.bool_)
-    alive[:nl] = True
+    live = np.zeros(L, dtype=np.bool_)  # the run is still written (not diverged, not padding)
+    live[:nl] = True
     n_alive = nl
+    cd = np.zeros(L, dtype=np.int64)  # this step's non-finite code, and the bound's
+    out = np.zeros(L, dtype=np.int64)
+    th = np.empty((N_THETA, L))  # this step's estimates in physical units
+    sm = np.zeros((N_SUM, L))  # the summaries (_record's columns), from the batch's
+    for l in range(nl):
+        for k in range(N_SUM):
+            sm[k, l] = summary[row[l], k]
     for n in range(n_steps):
         for l in range(L):
             ref[0, l] = ref1[row[l], n]
@@ -826,45 +840,71 @@ def run_group(
             psi[4, l] = 1.0
             err[l] = err[l] / sout
         _rls_lanes(L, theta, P, psi, err, lam, ppsi, den)
-        # the per-run bookkeeping (scalar): estimates, records, divergence
+        # the summaries of _record (same columns, same comparisons), over the lanes still
+        # written; then the divergence codes of run_design in the same precedence
+        steady = n >= par[P_STEADY]
+        for a in range(2):
+            for l in range(L):
+                v = abs(ref[a, l] - pos_n[a, l])
+                if live[l] and v > sm[a, l]:
+                    sm[a, l] = v
+                if steady and live[l] and v > sm[2 + a, l]:
+                    sm[2 + a, l] = v
+        for a in range(4):
+            for l in range(L):
+                v = abs(pos_n[a, l])
+                if live[l] and v > sm[SUM_XMAX + a, l]:
+                    sm[SUM_XMAX + a, l] = v
+                v = abs(u[a, l])
+                if live[l] and v > sm[SUM_UMAX + a, l]:
+                    sm[SUM_UMAX + a, l] = v
+        for l in range(L):
+            cd[l] = OK
+            out[l] = OK
+        for a in range(4):
+            for l in range(L):
+                if not math.isfinite(u[a, l]):
+                    cd[l] = BAD_FORCE
+        for k in range(N_THETA):
+            if par[P_MASK + k] > 0.5:
+                for l in range(L):
+                    th[k, l] = theta[k, l] * sout / psi_scale[k]
+                    if not math.isfinite(th[k, l]):
+                        cd[l] = BAD_ESTIMATE
+            else:
+                for l in range(L):
+                    th[k, l] = math.nan  # not identified (SimulationConfig.rls_columns)
+        for a in range(3, -1, -1):  # the first axis out of the bound names the code
+            for l in range(L):
+                if not (abs(pos[a, l]) <= par[P_BOUND]):  # also catches NaN
+                    out[l] = OUT_X1 + a
+        # per run (scalar): the estimates into theta_hat, the records, a divergence
         for l in range(nl):
-            if not alive[l]:
+            if not live[l]:
                 continue
             i = row[l]
-            cd = OK
-            for a in range(4):
-                if not math.isfinite(u[a, l]):
-                    cd = BAD_FORCE
             for k in range(N_THETA):
-                if par[P_MASK + k] > 0.5:
-                    out_th[i, n, k] = theta[k, l] * sout / psi_scale[k]
-                    if not math.isfinite(out_th[i, n, k]):
-                        cd = BAD_ESTIMATE
-                else:
-                    out_th[i, n, k] = math.nan
-            for a in range(4):
-                pos_1[a] = pos_n[a, l]
-                meas_1[a] = meas[a, l]
-                acc_1[a] = acc[a, l]
-                u_1[a] = u[a, l]
-                ref_1[a] = ref[a, l]
-            for k in range(N_GAIN):
-                gains_1[k] = gains[k, l]
-            _record(i, n, pos_1, meas_1, acc_1, u_1, gains_1, par, ref_1, out_ch, out_gain,
-                    summary, record)
-            if cd == OK:
+                out_th[i, n, k] = th[k, l]
+            if record:
                 for a in range(4):
-                    if not (abs(pos[a, l]) <= par[P_BOUND]):  # also catches NaN
-                        cd = OUT_X1 + a
-                        break
-            if cd != OK:
-                code[l] = cd
+                    pos_1[a] = pos_n[a, l]
+                    meas_1[a] = meas[a, l]
+                    acc_1[a] = acc[a, l]
+                    u_1[a] = u[a, l]
+                for k in range(N_GAIN):
+                    gains_1[k] = gains[k, l]
+                _store_channels(i, n, pos_1, meas_1, acc_1, u_1, gains_1, out_ch, out_gain)
+            c_l = cd[l] if cd[l] != OK else out[l]
+            if c_l != OK:
+                code[l] = c_l
                 last[l] = n
-                alive[l] = False
+                live[l] = False
                 n_alive -= 1
         if n_alive == 0:
             break
     for l in range(nl):
+        for k in range(N_SUM):
+            summary[row[l], k] = sm[k, l]
         end_run(row[l], code[l], last[l], par, out_th, out_ch, out_gain, status, record)
 
 
