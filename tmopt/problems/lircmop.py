@@ -41,9 +41,10 @@ N_CONSTR = {1: 2, 2: 2, 3: 3, 4: 3, 5: 2, 6: 2, 7: 3, 8: 3, 9: 2, 10: 2, 11: 2, 
 OFFSET = 0.7057
 RADIUS = 1.7057
 #: Smallest number of variables: LIR-CMOP1-4 need two variables in each of J1 and J2 for
-#: g_i = 0.5 to be reachable for every x1 (one variable reaches only [0, 0.5^2] around
-#: some centres), so their front is the published one only from n = 5 on.
-MIN_N_VAR = {k: (5 if k <= 12 else 3) for k in range(1, 15)}
+#: g_i = 0.5 to be reachable for every x1 (one variable reaches it only for centres
+#: below 0.29 or above 0.71), so their front is the published one only from n = 5 on; LIR-CMOP13-14
+#: need the suites' n_obj + 1.
+MIN_N_VAR = {k: (5 if k <= 12 else 4) for k in range(1, 15)}
 
 # Ellipses (p, q, a, b) of LIR-CMOP5-12, r = 0.1, rotated by theta = -pi/4 (the paper's
 # Table; PlatEMO's Constraint functions hold the same numbers).
@@ -121,7 +122,7 @@ class LIRCMOP(Problem):
 
     Args:
         k: Problem number, 1..14.
-        n_var: Number of variables (published: 30); at least 5 (3 for LIR-CMOP13-14).
+        n_var: Number of variables (published: 30); at least 5 (4 for LIR-CMOP13-14).
     """
 
     def __init__(self, k: int, n_var: int = 30) -> None:
