@@ -37,7 +37,7 @@ import sys
 from pathlib import Path
 
 from tmopt.files import atomic_write_text
-from tmopt.reporting import anytime, figures
+from tmopt.reporting import across, anytime, figures
 from tmopt.reporting.paper import algorithm_order, display_name
 from tmopt.reporting.runs import (
     COMPLETE,
@@ -102,6 +102,7 @@ def collect(sweep_dir: Path | list[Path], out: Path | None = None,
                                   fig10)
     if suites:
         notes.append(_write_benchmarks(suites, out, reference))
+        notes.append(_write_across(suites, out, reference))
     if at:
         notes.append(_write_anytime(runs, out, reference, at))
     label = ", ".join(map(str, dirs))
@@ -301,6 +302,46 @@ def _write_benchmarks(runs: list[RunRecord], out: Path, reference: str) -> str:
     return f"`benchmarks.md`, `benchmarks_igd.png`, `benchmarks_hv.png`: {len(rows)} settings."
 
 
+# ---- across problems ----------------------------------------------------------------------
+def _write_across(runs: list[RunRecord], out: Path, reference: str) -> str:
+    """``across_problems.md`` (Friedman + Holm per metric) and ``profiles.png``
+    (performance profiles): every setting but the algorithm's is a problem (block)."""
+    keys = setting_keys(runs)
+    treat = [k for k in keys if k == "algorithm" or k.startswith("algorithm.")]
+    blocks_keys = [k for k in _with(keys, ("problem",)) if k not in treat]
+    if not treat:
+        return "`across_problems.md` not written: one algorithm only."
+    lines = ["## Across problems: Friedman test, Holm's post-hoc, performance profiles", "",
+             "Each problem (every setting but the algorithm's: " + ", ".join(blocks_keys)
+             + ") gives one number per algorithm, the median over its complete runs (IGD: "
+             "a run without a feasible design counts as infinite; HV: as 0); problems "
+             "without runs of every algorithm are left out. Ranks: 1 = best on a "
+             "problem, ties shared. Friedman's chi2 and Iman-Davenport's F test whether "
+             "the algorithms differ at all; each algorithm is then compared with the "
+             f"reference ({reference}) by z = (R_i - R_ref) / sqrt(k (k+1) / (6 N)), "
+             "two-sided, Holm-adjusted over the k-1 comparisons (Demšar, JMLR 7, 2006); "
+             "+ / - / = : better / worse ranked than the reference, significant at 0.05 "
+             "after Holm, or not. profiles.png: Dolan-Moré performance profiles of the "
+             "same medians (IGD as the cost, and 1/HV).", ""]
+    panels = []
+    for metric in across.ACROSS_METRICS:
+        blocks, names, table = across.block_table(runs, metric, blocks_keys, treat)
+        header, body, text = across.friedman_rows(blocks, names, table, metric,
+                                                  reference if treat == ["algorithm"]
+                                                  else None)
+        lines += [text, ""] + ([_md(header, body), ""] if body else [])
+        if metric != "igd_plus" and len(blocks) and len(names) > 1:
+            lower, _ = across.ACROSS_METRICS[metric]
+            ratios, unsolved = across.performance_ratios(table, lower)
+            cost = "IGD" if lower else "1 / HV"
+            panels.append((f"{metric.upper()} (cost: {cost})", names, ratios, unsolved))
+    if panels:
+        figures.performance_profiles(panels, out / "profiles.png")
+    atomic_write_text(out / "across_problems.md", "\n".join(lines) + "\n")
+    return ("`across_problems.md`" + (", `profiles.png`" if panels else "")
+            + ": Friedman + Holm and performance profiles across problems.")
+
+
 # ---- anytime ----------------------------------------------------------------------------
 def _write_anytime(runs: list[RunRecord], out: Path, reference: str, at: list[int]) -> str:
     """``anytime.md/.csv`` at the counts ``at``, ``anytime.png`` on a grid of counts (with
@@ -338,8 +379,28 @@ def _write_anytime_kind(runs: list[RunRecord], out: Path, reference: str, at: li
     log_x = min(lengths) > 0 and max(lengths) > 5 * min(lengths)  # e.g. 697 beside 10 000
     figures.anytime_curves(rows, key, out / f"{stem}.png", log_x)
     where = "stiffness problem" if stiffness else "benchmark suites"
-    return (f"`{stem}.md`, `{stem}.png`: {where}, after {', '.join(map(str, at))} "
+    note = (f"`{stem}.md`, `{stem}.png`: {where}, after {', '.join(map(str, at))} "
             f"evaluations ({len(runs)} runs).")
+    return note + _write_anytime_seconds(runs, out, reference, metrics, keys, key, stem)
+
+
+def _write_anytime_seconds(runs, out, reference, metrics, keys, key, stem) -> str:
+    """``{stem}_seconds.png/.csv``: the same against wall-clock seconds (evaluation_clock)."""
+    grid = anytime.seconds_grid(runs)
+    if not grid:
+        return ""
+    records = [rec for run in runs for rec in anytime.clock_records(run, grid)]
+    keys = [k if k != anytime.EVALS_KEY else anytime.SECONDS_KEY for k in keys]
+    rows = summarise(group_runs(records, keys), metrics, reference)
+    for row in rows:  # the figure's x axis is the pseudo-setting "evaluations"
+        row["setting"] = {(anytime.EVALS_KEY if k == anytime.SECONDS_KEY else k): v
+                          for k, v in row["setting"].items()}
+    figures.anytime_curves(rows, key, out / f"{stem}_seconds.png", log_x=True,
+                           xlabel="wall-clock seconds (surrogate, search and evaluation)")
+    atomic_write_text(out / f"{stem}_seconds.csv", to_csv(csv_rows(rows, metrics, [
+        anytime.EVALS_KEY if k == anytime.SECONDS_KEY else k for k in keys])))
+    return (f" `{stem}_seconds.png/.csv`: the same against wall-clock time (runs with an "
+            f"evaluation clock; a line ends where its runs ended).")
 
 
 def _setting_order(row: dict) -> tuple:
