@@ -189,16 +189,7 @@ def test_lircmop5_12_fronts_against_platemos_points(k):
 def test_lircmop5_12_fronts_agree_with_brute_force_over_designs(k):
     """Objective vectors of a grid of (x1, g1, g2), i.e. of real designs: no feasible one
     dominates the front, and those the front does not dominate lie next to it."""
-    t = np.linspace(0, 1, 400)
-    s1, s2 = np.meshgrid(np.linspace(0, 0.12, 60), np.linspace(0, 0.12, 60))
-    T = np.repeat(t, s1.size)
-    S1, S2 = np.tile(s1.ravel(), len(t)), np.tile(s2.ravel(), len(t))
-    c = flir.curve(k, T)
-    if k <= 8:
-        F = c + 10 * np.column_stack([S1, S2])
-    else:
-        F = c * (1 + 10 * np.column_stack([S1, S2]))
-    grid = nondominated(F[lir.objective_constraints(k, F).max(1) <= 0])
+    grid = nondominated(flir.design_grid(k))
     front = pareto_front(f"lircmop{k}", 2, 2000)
     _brute_force_check(front, grid, 0.03)
 

@@ -85,26 +85,56 @@ def front_sample(k: int, n_points: int = 2000) -> FrontSample:
     return FrontSample(F, pos, pos[:, 1] + pos[:, 2])
 
 
-def _boundary_front(k: int) -> np.ndarray:
-    """Non-dominated feasible points of the boundary of LIR-CMOP``k`` (5..12), sorted by f1."""
+def _boundary_parts(k: int) -> list[tuple]:
+    """The boundary of LIR-CMOP``k``'s attainable region and of its constraints as
+    parametric curves ``(function of u -> (n, 2) points, u grid)``."""
     n = N_BOUNDARY
-    t = even_along(lambda u: curve(k, u), 0.0, 1.0, n)
     c0, c1 = curve(k, np.array([0.0, 1.0]))
-    s = np.linspace(0.0, 4.0, n)
-    parts = [curve(k, t), c0 + s[:, None] * [0.0, 1.0], c1 + s[:, None] * [1.0, 0.0]]
-    phi = np.linspace(0.0, 2 * np.pi, n)
+    parts = [(lambda u: curve(k, u), even_along(lambda u: curve(k, u), 0.0, 1.0, n)),
+             (lambda s: c0 + s[:, None] * [0.0, 1.0], np.linspace(0.0, 4.0, n)),
+             (lambda s: c1 + s[:, None] * [1.0, 0.0], np.linspace(0.0, 4.0, n))]
     cos_t, sin_t = np.cos(lir.THETA), np.sin(lir.THETA)
     for p, q, a, b in lir._ELLIPSES[k]:  # r - u^2/a^2 - v^2/b^2 = 0, rotated back
-        u, v = a * np.sqrt(lir.ELLIPSE_R) * np.cos(phi), b * np.sqrt(lir.ELLIPSE_R) * np.sin(phi)
-        parts.append(np.column_stack([p + u * cos_t + v * sin_t, q - u * sin_t + v * cos_t]))
+        def ellipse(phi, p=p, q=q, a=a, b=b):
+            u = a * np.sqrt(lir.ELLIPSE_R) * np.cos(phi)
+            v = b * np.sqrt(lir.ELLIPSE_R) * np.sin(phi)
+            return np.column_stack([p + u * cos_t + v * sin_t, q - u * sin_t + v * cos_t])
+        parts.append((ellipse, np.linspace(0.0, 2 * np.pi, n)))
     if k in lir._WAVE:  # z = c + sin(4 pi w), (w, z) the coordinates rotated by alpha
-        w = np.linspace(-4.0, 4.0, 8 * n)
-        z = lir._WAVE[k] + np.sin(4 * np.pi * w)
         ca, sa = np.cos(lir.ALPHA), np.sin(lir.ALPHA)
-        parts.append(np.column_stack([w * ca + z * sa, -w * sa + z * ca]))
-    F = np.vstack(parts)
-    keep = in_region(k, F) & (lir.objective_constraints(k, F).max(axis=1) <= FEASIBLE_TOL)
-    F = F[keep]
+
+        def wave(w):
+            z = lir._WAVE[k] + np.sin(4 * np.pi * w)
+            return np.column_stack([w * ca + z * sa, -w * sa + z * ca])
+        parts.append((wave, np.linspace(-4.0, 4.0, 8 * n)))
+    return parts
+
+
+def _feasible(k: int, F: np.ndarray) -> np.ndarray:
+    return in_region(k, F) & (lir.objective_constraints(k, F).max(axis=1) <= FEASIBLE_TOL)
+
+
+def _boundary_front(k: int, n_bisect: int = 60) -> np.ndarray:
+    """Non-dominated feasible points of the boundary of LIR-CMOP``k`` (5..12), sorted by
+    f1. Where feasibility changes between two samples of a boundary curve, the change
+    is located by bisection, so every feasible arc's ends are points of the front
+    candidates (not only the samples next to them)."""
+    found = []
+    for fun, u in _boundary_parts(k):
+        F = fun(u)
+        ok = _feasible(k, F)
+        found.append(F[ok])
+        flip = np.flatnonzero(ok[:-1] != ok[1:])
+        lo, hi = u[flip], u[flip + 1]
+        good_lo = ok[flip]  # whether the lower end of each interval is the feasible one
+        for _ in range(n_bisect):
+            mid = 0.5 * (lo + hi)
+            like_lo = _feasible(k, fun(mid)) == good_lo
+            lo, hi = np.where(like_lo, mid, lo), np.where(like_lo, hi, mid)
+        ends = np.where(good_lo, lo, hi)
+        E = fun(ends)
+        found.append(E[_feasible(k, E)])
+    F = np.vstack(found)
     nd = nondominated_index(F)
     return F[nd[np.argsort(F[nd, 0], kind="stable")]]
 
@@ -149,6 +179,18 @@ def distances(k: int, F: np.ndarray, n_bisect: int = 60) -> np.ndarray:
     t = 0.5 * (a + b)
     g1, g2 = sums(t)
     return np.column_stack([t, np.maximum(g1, 0.0), np.maximum(g2, 0.0)])
+
+
+def design_grid(k: int, n_t: int = 400, n_s: int = 60, s_max: float = 0.12) -> np.ndarray:
+    """Feasible objective vectors of LIR-CMOP``k`` (5..12) on a grid of (x1, g1, g2): for
+    brute-force checks of the front (no boundary, no non-dominated filter)."""
+    t = np.linspace(0, 1, n_t)
+    s1, s2 = np.meshgrid(np.linspace(0, s_max, n_s), np.linspace(0, s_max, n_s))
+    T = np.repeat(t, s1.size)
+    S = 10 * np.column_stack([np.tile(s1.ravel(), n_t), np.tile(s2.ravel(), n_t)])
+    c = curve(k, T)
+    F = c + S if k <= 8 else c * (1 + S)
+    return F[lir.objective_constraints(k, F).max(axis=1) <= 0]
 
 
 def front(k: int, n_points: int = 2000) -> np.ndarray:
