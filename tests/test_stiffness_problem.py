@@ -221,11 +221,29 @@ def test_information_needs_no_noise():
     assert np.all(np.isfinite(F)) and np.all(F[:, 0] <= 120.0)
 
 
+def test_information_can_check_eq20_on_the_noise_seed_run_as_fixed_does():
+    """The noise's share of the commanded force is invisible to the noise-free run
+    (docs/noise.md "Constraints under information"); ``noise_seed`` checks Eq. 20 on the
+    very run ``fixed`` checks it on, and records that seed."""
+    kw = dict(scheme="B", n_freq=1, noise_seed=3, **SHORT)
+    _, G_fixed, _ = _f(StiffnessProblem(**kw), FIG6_2)
+    info = dict(noise="information", **kw)
+    F_free, G_free, s_free = _f(StiffnessProblem(**info), FIG6_2)
+    F_drawn, G_drawn, s_drawn = _f(
+        StiffnessProblem(information_constraints="noise_seed", **info), FIG6_2)
+    np.testing.assert_array_equal(G_drawn, G_fixed)
+    np.testing.assert_array_equal(F_drawn, F_free)  # the objectives stay predicted
+    assert s_free.shape == (2, 0) and s_drawn.tolist() == [[3], [3]]
+    # FIG6 (row 0; row 1 saturates at its cap): the noise's share of the force shows
+    assert G_drawn[0, 0] > G_free[0, 0]
+
+
 @pytest.mark.parametrize("kwargs, message", [
     ({"noise": "random"}, "noise must be one of"),
     ({"noise_samples": 0}, "noise_samples must be an integer in [1, 1000]"),
     ({"noise_seed": 2**50}, "noise_seed must be an integer in [0, "),
     ({"heldout_seeds": -1}, "heldout_seeds must be an integer in [0, 100000]"),
+    ({"information_constraints": "noisy"}, "information_constraints must be one of"),
 ])
 def test_bad_noise_settings_are_one_line(kwargs, message):
     with pytest.raises(ValueError, match=message.replace("[", r"\[").replace("]", r"\]")):

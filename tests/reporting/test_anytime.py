@@ -73,6 +73,31 @@ def test_bad_counts_name_the_option(capsys):
     with pytest.raises(SystemExit):
         main(["some_dir", "--at", "x"])
     assert "--at must be comma-separated positive integers" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["some_dir", "--at", "10", "--at-seeds", "-1"])
+    assert "--at-seeds must be an integer in [0, 100000], got -1" in capsys.readouterr().err
+
+
+def test_prefix_scores_each_chosen_design_once_on_held_out_seeds(monkeypatch):
+    """Held-out scoring of the anytime view (the headline): a design chosen at several k
+    is simulated once; the block is the one metrics.json's ``heldout`` has."""
+    import tmopt.reporting.anytime as anytime_module
+
+    calls = []
+
+    def fake_heldout(problem, X, best, front, used_seeds=None):
+        calls.append(best)
+        return {"heldout": {"M": {"mean": 10.0 + best}, "eq20_share": 1.0}}
+
+    monkeypatch.setattr(anytime_module, "heldout_metrics", fake_heldout)
+    data = _archive([[90.0, 1e-10], [300.0, 3e-10], [60.0, 5e-11], [120.0, 1e-10]],
+                    [[0.5], [-0.1], [2.0], [-0.2]])
+    cache: dict = {}
+    chosen = [prefix_values(STIFFNESS_LIKE, data, k, heldout_cache=cache)["heldout"]
+              for k in (1, 2, 3, 4)]
+    assert [c["M"]["mean"] for c in chosen] == [10.0, 11.0, 11.0, 13.0]
+    assert calls == [0, 1, 3]  # row 1 chosen at k = 2 and 3: simulated once
+    assert "heldout" not in prefix_values(STIFFNESS_LIKE, data, 4)  # no cache: none
 
 
 def test_evaluations_by_a_time_follow_the_evaluation_clock():

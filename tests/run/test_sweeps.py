@@ -131,6 +131,9 @@ def test_both_sweeps_through_basic_and_joblib_then_collect_lists_failed_and_inco
         assert at40["n_complete"] == "2"
         assert float(at40["M_TM1_mean"]) == pytest.approx(
             float(table3[algo]["M_TM1_mean"]), rel=1e-12)
+        # the headline is held-out there too: the same design on the same held-out seeds
+        assert float(at40["heldout_M_mean"]) == pytest.approx(
+            float(table3[algo]["heldout_M_mean"]), rel=1e-12)
     with open(out / "anytime_benchmarks.csv") as fh:
         early = {(r["algorithm"], r["evaluations"]): r for r in csv.DictReader(fh)}
     assert (early[("nsga2", "40")]["n_runs"], early[("nsga2", "40")]["n_complete"]) == (

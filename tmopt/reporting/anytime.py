@@ -9,8 +9,11 @@ compromise of Eq. 21, else the least violating design). Per ``k``:
 
 - stiffness problem: whether that design is feasible, its convergence time (Eq. 18),
   accuracy (Eq. 19) and M (Eq. 29) of TM1, from the archived objectives (the numbers
-  the optimiser saw; the final tables re-simulate the chosen design with the same noise
-  seed, which gives the same values at the optimisation threshold);
+  the optimiser saw: one noise draw under ``fixed``), and -- the headline, as in the final
+  tables -- the same design re-simulated on the run's held-out noise seeds (``heldout``,
+  the block metrics.json has; ``heldout_seeds`` of :func:`anytime_records`, default the
+  problem's own): a curve of search draws would show the selection's noise luck growing
+  with k. A design chosen at several k is simulated once per run;
 - benchmark suites: whether a feasible design exists, IGD, IGD+ and HV of the feasible
   front (:func:`tmopt.run.outputs.indicator_values`).
 
@@ -25,10 +28,12 @@ import dataclasses
 import logging
 from collections.abc import Sequence
 
+import numpy as np
 from omegaconf import OmegaConf
 
 from tmopt.evaluation.archive import ArchiveData, read_archive
 from tmopt.metrics.identification import metric_m
+from tmopt.problems.heldout import heldout_metrics
 from tmopt.reporting.runs import COMPLETE, INCOMPLETE, RunRecord
 from tmopt.run.build import build_problem
 from tmopt.run.outputs import final_choice, indicator_values, reference_front
@@ -53,8 +58,12 @@ def parse_counts(text: str) -> list[int]:
     return counts
 
 
-def prefix_values(problem, data: ArchiveData, k: int, front=None) -> dict:
-    """The run's report after its first ``k`` evaluations (``k <= len(data)``)."""
+def prefix_values(problem, data: ArchiveData, k: int, front=None,
+                  heldout_cache: dict | None = None) -> dict:
+    """The run's report after its first ``k`` evaluations (``k <= len(data)``).
+
+    ``heldout_cache``: for the stiffness problem with held-out seeds, the ``heldout``
+    block of each chosen row (filled here; None: no held-out scoring)."""
     head = data.rows(0, k)
     pareto, best = final_choice(head)
     chosen = {"feasible": bool(len(pareto))}
@@ -65,13 +74,24 @@ def prefix_values(problem, data: ArchiveData, k: int, front=None) -> dict:
         t, acc = (float(head.F[best, names.index(key)]) for key in (t_key, a_key))
         out["identification"] = {t_key: t, a_key: acc,
                                  f"M_{KEY_TM}": metric_m(t, acc, *problem.m_weights)}
+        if heldout_cache is not None:
+            if best not in heldout_cache:
+                used = getattr(data, "noise_seeds", None)
+                heldout_cache[best] = heldout_metrics(
+                    problem, data.X, best, np.zeros(0, dtype=int),
+                    used_seeds=used if used is not None and len(used) else None)["heldout"]
+            out["heldout"] = heldout_cache[best]
     else:
         out.update(indicator_values(problem, head.F[pareto], front))
     return out
 
 
-def anytime_records(run: RunRecord, counts: Sequence[int]) -> list[RunRecord]:
+def anytime_records(run: RunRecord, counts: Sequence[int],
+                    heldout_seeds: int | None = None) -> list[RunRecord]:
     """One pseudo-run per ``k`` in ``counts``: the run's report after ``k`` evaluations.
+
+    ``heldout_seeds``: held-out realisations each chosen stiffness design is re-scored on
+    (None: the run's own ``problem.heldout_seeds``; 0: none, search draws only).
 
     Each carries ``evaluations = k`` in its configuration (so it groups by ``k``) and is
     ``complete`` when the run had reached ``k`` (then its metrics are the prefix's),
@@ -85,12 +105,16 @@ def anytime_records(run: RunRecord, counts: Sequence[int]) -> list[RunRecord]:
         log.warning("anytime: %s has no readable archive (%s)", run.path, exc)
         return [dataclasses.replace(run, status=INCOMPLETE, metrics=None, n_evals=None,
                                     config={**run.config, EVALS_KEY: k}) for k in counts]
-    front = None if hasattr(problem, "m_weights") else reference_front(problem)
+    stiffness = hasattr(problem, "m_weights")
+    front = None if stiffness else reference_front(problem)
+    if stiffness and heldout_seeds is not None:
+        problem.n_heldout = int(heldout_seeds)
+    cache = {} if stiffness and getattr(problem, "n_heldout", 0) > 0 else None
     records = []
     for k in counts:
         config = {**run.config, EVALS_KEY: k}
         if k <= len(data):
-            metrics = prefix_values(problem, data, k, front)
+            metrics = prefix_values(problem, data, k, front, cache)
             records.append(dataclasses.replace(run, status=COMPLETE, config=config,
                                                metrics=metrics, n_evals=k))
         else:

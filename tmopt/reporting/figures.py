@@ -340,7 +340,9 @@ def anytime_curves(rows: list[dict], key: str, path: Path, log_x: bool = False,
     wide = max(len(lines) for lines in panels.values()) > 6 if panels else False
     fig, axes = plt.subplots(math.ceil(n / cols), cols, squeeze=False,
                              figsize=((9 if wide else 5.5) * cols, 4 * math.ceil(n / cols)))
-    ylabel = ("M (TM1) of the chosen design" if key == "M_TM1" else key.upper()) + " [-]"
+    ylabel = {"M_TM1": "M (TM1) of the chosen design, search draw",
+              "heldout_M": "held-out M (TM1) of the chosen design"}.get(key, key.upper()) \
+        + " [-]"
     for ax, (panel, lines) in zip(axes.flat, sorted(panels.items())):
         colours = plt.get_cmap("tab20" if len(lines) > 10 else "tab10")
         for i, (name, pts) in enumerate(lines.items()):

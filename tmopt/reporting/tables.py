@@ -141,8 +141,10 @@ SEARCH_DRAW_METRICS = (
     *TABLE3_METRICS, *COMMON_METRICS)
 #: What an archive prefix gives (tmopt.reporting.anytime): no re-simulation, so no
 #: stricter thresholds or final accuracy.
-ANYTIME_STIFFNESS_METRICS = tuple(m for m in SEARCH_DRAW_METRICS if m.key in (
-    "chosen_feasible", "convergence_time_TM1", "convergence_accuracy_TM1", "M_TM1"))
+ANYTIME_STIFFNESS_METRICS = (
+    *(m for m in HELDOUT_METRICS if m.key in ("heldout_M", "heldout_M_std", "heldout_eq20")),
+    *(m for m in SEARCH_DRAW_METRICS if m.key in (
+        "chosen_feasible", "convergence_time_TM1", "convergence_accuracy_TM1", "M_TM1")))
 BENCHMARK_METRICS: tuple[Metric, ...] = (
     Metric("has_front", "feasible set found", _has_front),
     Metric("igd", "IGD", _metric("igd"), tested=True),

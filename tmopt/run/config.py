@@ -59,6 +59,7 @@ HASH_NEUTRAL_ARGUMENTS: dict[tuple[str, str, str], Callable[[dict], bool] | None
     ("problem", "tmopt.problems.suites.PymooBenchmark", "difficulty"): None,
     ("problem", "tmopt.problems.suites.PymooBenchmark", "front_points"): None,
     ("problem", "tmopt.problems.suites.PymooBenchmark", "n_obj"): _objectives_fixed,
+    ("problem", "tmopt.problems.stiffness.StiffnessProblem", "information_constraints"): None,
 }
 #: Arguments added later whose earlier behaviour is a value other than their constructor
 #: default (the default being the new behaviour): at that value they stay out of
