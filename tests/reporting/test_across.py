@@ -10,7 +10,7 @@ from scipy.stats import friedmanchisquare
 from tests.reporting.test_collect import _run
 from tmopt.reporting.across import block_table, performance_ratios, profile
 from tmopt.reporting.collect import collect
-from tmopt.reporting.runs import discover_runs
+from tmopt.reporting.runs import discover_runs, setting_keys
 from tmopt.reporting.stats import average_ranks, friedman, holm, post_hoc_vs_control
 
 # Demšar, JMLR 7 (2006), Table 6: AUC of C4.5, C4.5+m, C4.5+cf, C4.5+m+cf on 14 data sets,
@@ -117,3 +117,19 @@ def test_collect_writes_friedman_holm_and_profiles_across_problems(tmp_path):
     # Holm: both 0.0833 * 2 -> 0.167: not significant with 6 problems
     assert "| kts | 1.000 | -1.732 | 0.083 | 0.167 | = |" in text
     assert "| mgsaea_ipc | 2.000 | reference | n/a | n/a |  |" in text
+
+
+def test_a_parameter_only_one_algorithm_has_does_not_split_the_algorithms(tmp_path):
+    import json
+    _suite_runs(tmp_path / "sweep", [[0.2, 0.1, 0.5]] * 3)
+    for path in (tmp_path / "sweep").glob("*-mgsaea_ipc-*"):
+        config = json.loads((path / "config.yaml").read_text())
+        (path / "config.yaml").write_text(json.dumps({**config, "algorithm": {"gap": 20}}))
+        with open(path / ".hydra" / "overrides.yaml", "a") as fh:
+            fh.write("- algorithm.gap=20\n")
+    runs = discover_runs(tmp_path / "sweep")
+    assert "algorithm.gap" in setting_keys(runs)  # it differs: 20 for IPC, absent for KTS
+    out = tmp_path / "out"
+    collect(tmp_path / "sweep", out)
+    text = (out / "across_problems.md").read_text()
+    assert "| mgsaea_ipc | 2.000 | reference |" in text and "| kts | 1.000 |" in text

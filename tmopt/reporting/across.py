@@ -103,7 +103,8 @@ def friedman_rows(blocks: list[str], treatments: list[str], table: np.ndarray, m
         mark = "" if not math.isfinite(ph[i]) else (
             "=" if ph[i] >= ALPHA else "+" if z[i] < 0 else "-")
         body.append([treatments[i], f"{res.ranks[i]:.3f}",
-                     "reference" if i == control else f"{z[i]:.3f}",
+                     "reference" if i == control else
+                     f"{z[i]:.3f}" if math.isfinite(z[i]) else "n/a",
                      fmt_p(p[i]), fmt_p(ph[i]), mark])
     verdict = "differ" if res.p_f < ALPHA else "do not differ significantly"
     text = (f"{metric.upper()}: N = {res.n_problems} problems, k = {res.n_algorithms} "

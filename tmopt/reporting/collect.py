@@ -311,9 +311,15 @@ def _write_across(runs: list[RunRecord], out: Path, reference: str) -> str:
     """``across_problems.md`` (Friedman + Holm per metric) and ``profiles.png``
     (performance profiles): every setting but the algorithm's is a problem (block)."""
     keys = setting_keys(runs)
-    treat = [k for k in keys if k == "algorithm" or k.startswith("algorithm.")]
-    blocks_keys = [k for k in _with(keys, ("problem",)) if k not in treat]
-    if not treat:
+    # an algorithm.* key splits the treatments only where it varies within one algorithm
+    # (KTS has no "gap": that alone must not make MGSAEA-IPC's gap a setting)
+    own = [k for k in keys if k.startswith("algorithm.") and any(
+        len({r.value(k) for r in runs if r.value("algorithm") == a}) > 1
+        for a in {r.value("algorithm") for r in runs})]
+    treat = ["algorithm", *own]
+    blocks_keys = [k for k in _with(keys, ("problem",))
+                   if k != "algorithm" and not k.startswith("algorithm.")]
+    if len({r.value("algorithm") for r in runs}) < 2 and not own:
         return "`across_problems.md` not written: one algorithm only."
     lines = ["## Across problems: Friedman test, Holm's post-hoc, performance profiles", "",
              "Each problem (every setting but the algorithm's: " + ", ".join(blocks_keys)
