@@ -377,7 +377,8 @@ def _anytime_line(ax, pts: list[dict], key: str, name: str, colour) -> None:
     mean = np.array([p[key][0] for p in pts])
     std = np.nan_to_num(np.array([p[key][1] for p in pts]))
     full = np.array([p["n_complete"] == p["n_runs"] for p in pts])
-    ax.plot(k[full], mean[full], color=colour, label=name)
+    if full.any():  # an empty line would still take a legend entry
+        ax.plot(k[full], mean[full], color=colour, label=name)
     ax.fill_between(k, mean - std, mean + std, color=colour, alpha=0.1, lw=0)
     if not full.all():  # some runs stop short of here (unfinished or smaller budget)
         start = max(0, int(np.argmin(full)) - 1)
