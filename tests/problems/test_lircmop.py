@@ -214,3 +214,13 @@ def test_bad_sizes_are_refused_with_the_range():
         PymooBenchmark("lircmop3", n_var=4)
     with pytest.raises(ValueError, match=r"must be an integer in 1..14, got 15"):
         LIRCMOP(15)
+
+
+@pytest.mark.parametrize("k", range(5, 13))
+def test_fronts_hold_no_point_outside_the_attainable_region(k):
+    # a point 1e-12 left of the smallest attainable f1 (an ellipse's end on the vertical
+    # ray) was non-dominated only by that error and stretched LIR-CMOP6's nadir to 3.46
+    F = pareto_front(f"lircmop{k}", 2, 2000)
+    assert flir.in_region(k, F, tol=0.0).all()
+    if k in (5, 6):  # the ellipses leave the unconstrained curve whole (PlatEMO's front)
+        np.testing.assert_allclose([F.min(0), F.max(0)], [[0.7057] * 2, [1.7057] * 2])

@@ -133,3 +133,20 @@ def test_a_parameter_only_one_algorithm_has_does_not_split_the_algorithms(tmp_pa
     collect(tmp_path / "sweep", out)
     text = (out / "across_problems.md").read_text()
     assert "| mgsaea_ipc | 2.000 | reference |" in text and "| kts | 1.000 |" in text
+
+
+def test_rescore_recomputes_the_indicators_from_the_archive(tmp_path):
+    import csv
+    import json
+
+    from tests.algorithms.contract import cli_metrics
+    run_dir = tmp_path / "sweep" / "r0"
+    written = cli_metrics(run_dir, "problem=lircmop6", "problem.n_var=5", "algorithm=nsga2",
+                          "algorithm.pop_size=20", "budget=60", "progress=false")
+    stale = {**written, "hv": 0.123456, "igd": 9.0}  # as if scored against an older front
+    (run_dir / "metrics.json").write_text(json.dumps(stale))
+    for rescore, expect in ((False, 0.123456), (True, written["hv"])):
+        out = tmp_path / f"out{rescore}"
+        collect(tmp_path / "sweep", out, rescore=rescore)
+        row = next(csv.DictReader((out / "runs.csv").open()))
+        assert float(row["hv"]) == pytest.approx(expect, rel=1e-12)

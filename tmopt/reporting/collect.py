@@ -80,7 +80,7 @@ TEST_NOTE = ("p: two-sided Wilcoxon rank-sum test (scipy.stats.mannwhitneyu, exa
 
 def collect(sweep_dir: Path | list[Path], out: Path | None = None,
             reference: str = DEFAULT_REFERENCE, fig10_run: Path | None = None,
-            fig10: bool = True, at: list[int] | None = None,
+            fig10: bool = True, at: list[int] | None = None, rescore: bool = False,
             at_seeds: int | None = None) -> list[Path]:
     """Write every table and figure of the sweep(s) in ``sweep_dir``; return the files written.
 
@@ -89,6 +89,8 @@ def collect(sweep_dir: Path | list[Path], out: Path | None = None,
 
     Several sweep folders (a list) are collected as one: e.g. the same algorithms at two
     budgets from two sweeps, so that they share one table and one reference.
+    ``rescore``: the suite runs' IGD, IGD+ and HV are recomputed from their archives
+    against today's fronts (runs made before a front was corrected).
     """
     dirs = [Path(d) for d in (sweep_dir if isinstance(sweep_dir, list) else [sweep_dir])]
     if out is None and len(dirs) > 1:
@@ -97,6 +99,8 @@ def collect(sweep_dir: Path | list[Path], out: Path | None = None,
     runs, duplicates = deduplicate(_discover(dirs))
     if not runs:
         raise FileNotFoundError(f"no run folders under {', '.join(map(str, dirs))}")
+    if rescore:
+        runs = [anytime.rescored(r) if not r.is_stiffness else r for r in runs]
     out.mkdir(parents=True, exist_ok=True)
     notes = [_write_runs(runs, out), _write_status(runs, duplicates, out)]
     stiffness = [r for r in runs if r.is_stiffness]
@@ -487,6 +491,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="run folder whose chosen design Fig. 10 shows (default: the "
                          "reference algorithm's median run by M)")
     ap.add_argument("--no-fig10", action="store_true", help="skip Fig. 10's re-simulation")
+    ap.add_argument("--rescore", action="store_true",
+                    help="recompute the suite runs' IGD, IGD+ and HV from their archives "
+                         "against today's fronts (metrics.json stays as written)")
     ap.add_argument("--at", default=None, metavar="K[,K...]",
                     help="also write anytime.md/.png: every setting after its runs' first K "
                          "real evaluations (e.g. --at 300,400,697)")
@@ -504,7 +511,8 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.WARNING, format="%(message)s")
     try:
         files = collect(args.sweep_dir, args.out, args.reference_algorithm, args.fig10_run,
-                        fig10=not args.no_fig10, at=at, at_seeds=args.at_seeds)
+                        fig10=not args.no_fig10, at=at, at_seeds=args.at_seeds,
+                        rescore=args.rescore)
     except FileNotFoundError as exc:
         print(f"tmopt.collect: error: {exc}", file=sys.stderr)
         return 2

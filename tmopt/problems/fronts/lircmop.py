@@ -134,9 +134,22 @@ def _boundary_front(k: int, n_bisect: int = 60) -> np.ndarray:
         ends = np.where(good_lo, lo, hi)
         E = fun(ends)
         found.append(E[_feasible(k, E)])
-    F = np.vstack(found)
+    F = _onto_region(k, np.vstack(found))
     nd = nondominated_index(F)
     return F[nd[np.argsort(F[nd, 0], kind="stable")]]
+
+
+def _onto_region(k: int, F: np.ndarray) -> np.ndarray:
+    """Points within the tolerance outside the attainable region moved onto its edge: a
+    point 1e-12 left of ``f1 = c1(0)`` (an ellipse's end on the vertical ray) would
+    otherwise be non-dominated only because no attainable point is that far left."""
+    lo = curve(k, np.array([0.0]))[0, 0]
+    scale = 1.0 if k <= 8 else lir.RADIUS
+    F = F.copy()
+    F[:, 0] = np.maximum(F[:, 0], lo)
+    t_star = np.clip((F[:, 0] - lo) / scale, 0.0, 1.0)
+    F[:, 1] = np.maximum(F[:, 1], curve(k, t_star)[:, 1])
+    return F
 
 
 def in_region(k: int, F: np.ndarray, tol: float = 1e-12) -> np.ndarray:
