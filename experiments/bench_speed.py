@@ -33,7 +33,9 @@ wall time of an idle machine; wall seconds and the load average are printed besi
   of the stiffness problem x K = 32 noise seeds (8 in ``--quick``), in runs of the
   problem's chunk per call: the current kernel against today's
   (``REFERENCE_KERNEL_COMMIT``, read from git and compiled in this process), with one
-  numba thread and with all; the outputs are compared bit for bit.
+  numba thread and with all; every kernel output (theta_hat, summary, status) is compared
+  bit for bit, and so is everything the problem reads (convergence time, accuracies, M,
+  Eq. 20's constraint values, divergence) for the B designs x K seeds.
 
 The last line is ``speed: qlognehvi_ratio=R1 gp_iter_ratio=R2 sim_ms_per_design_seed=T
 sim_ratio=R3`` (ratios = reference time / new time, in this process). In ``--quick`` R1
@@ -45,6 +47,7 @@ from __future__ import annotations
 
 import argparse
 import cProfile
+import inspect
 import os
 import pstats
 import sys
@@ -366,28 +369,81 @@ def reference_kernel_module():
     return module
 
 
-def run_kernel(kernel, ref1, ref2, cfg, seeds) -> np.ndarray:
-    """Runs (ref1[i], ref2[i], seeds[i]) through ``kernel`` with the simulator's own inputs;
-    theta_hat (B, N, 5). A kernel that takes one noise realisation per launch (before
-    issue 18's ``noise_of``) is launched once per seed; the inputs are passed by the
-    kernel's own parameter names (a kernel before the y set points has no ``refy``)."""
-    import inspect
+#: the kernel outputs of a run in estimates mode (what SimulationResult is made of)
+KERNEL_OUTPUTS = ("out_th", "summary", "status")
 
+
+def run_kernel(kernel, ref1, ref2, cfg, seeds, outputs: bool = False):
+    """Runs (ref1[i], ref2[i], seeds[i]) through ``kernel`` with the simulator's own inputs;
+    theta_hat (B, N, 5), or with ``outputs`` the dict of KERNEL_OUTPUTS. A kernel that
+    takes one noise realisation per launch (before issue 18's ``noise_of``) is launched
+    once per seed; the inputs are passed by the kernel's own parameter names (a kernel
+    before the y set points has no ``refy``)."""
     from tmopt.physics import simulator as S
 
-    params = inspect.signature(kernel.py_func).parameters
+    params = inspect.signature(kernel.py_func).parameters  # a kernel's own arguments
     if "noise_of" in params:
         io = S.prepare(ref1, ref2, cfg, seeds)
-        kernel(*[io[k] for k in S._KERNEL_ARGS if k in params])
-        return io["out_th"]
-    out = np.empty((len(seeds), ref1.shape[1], 5))
+        kernel(*[io[k] for k in params])
+        return {k: io[k] for k in KERNEL_OUTPUTS} if outputs else io["out_th"]
+    out = {"out_th": np.empty((len(seeds), ref1.shape[1], 5)),
+           "summary": np.empty((len(seeds), 12)), "status": np.empty((len(seeds), 2), int)}
     for seed in np.unique(seeds):
         rows = np.flatnonzero(seeds == seed)
         io = S.prepare(ref1[rows], ref2[rows], cfg, int(seed))
         io["noise"] = io["noise"].reshape(-1, *io["noise"].shape[-2:])[0]  # (14, N)
-        kernel(*[io[k] for k in S._KERNEL_ARGS if k in params])
-        out[rows] = io["out_th"]
-    return out
+        kernel(*[io[k] for k in params if k != "noise_of"])
+        for k in KERNEL_OUTPUTS:
+            out[k][rows] = io[k]
+    return out if outputs else out["out_th"]
+
+
+def problem_outputs(problem, X: np.ndarray, seeds: np.ndarray, kernel=None) -> dict:
+    """Everything the stiffness problem reads from the simulator for designs X x seeds,
+    (n, K) arrays: convergence time, accuracies, M (and its stricter-epsilon variants) per
+    objective test mass, Eq. 20's constraint values and feasibility (the held-out scoring's
+    ``_run_scores``), computed with ``kernel`` (a batch kernel without ``lanes``, e.g. the
+    reference) in place of the simulator's own when given."""
+    from tmopt.physics import _closed_loop as cl
+    from tmopt.physics import objectives as phys_obj
+    from tmopt.physics import simulator as S
+    from tmopt.problems.heldout import _run_scores
+
+    current = cl.batch_kernel
+    if kernel is not None:  # the simulator's call, by the kernel's own parameter names
+        own = inspect.signature(kernel.py_func).parameters
+        cl.batch_kernel = lambda *args: kernel(
+            *[a for name, a in zip(S._KERNEL_ARGS, args) if name in own])
+    try:
+        n, k = len(X), len(seeds)
+        out: dict[str, list] = {}
+        step = max(1, problem.chunk // k)
+        for start in range(0, n, step):
+            block = X[start:start + step]
+            res = problem.simulate_designs(np.repeat(block, k, axis=0),
+                                           seed=np.tile(seeds, len(block)))
+            cols = _run_scores(problem, res)
+            g = problem._normalised(phys_obj.eq20_realised(res))
+            for j in range(g.shape[1]):
+                cols[f"constraint_{j}"] = g[:, j]
+            cols["diverged"] = res.diverged
+            for key, v in cols.items():
+                out.setdefault(key, []).append(np.asarray(v).reshape(len(block), k))
+    finally:
+        cl.batch_kernel = current
+    return {key: np.vstack(v) for key, v in out.items()}
+
+
+def compare_outputs(new: dict, ref: dict) -> tuple[bool, str]:
+    """(all bit-identical, a line naming every output and its largest difference)."""
+    same, parts = True, []
+    for key in new:
+        a, b = np.asarray(new[key], float), np.asarray(ref[key], float)
+        eq = np.array_equal(a, b, equal_nan=True)
+        same &= eq
+        diff = np.nanmax(np.abs(a - b)) if not eq else 0.0
+        parts.append(f"{key} {'=' if eq else f'max|diff| {diff:.3g}'}")
+    return same, "; ".join(parts)
 
 
 def section_sim(quick: bool) -> tuple[float, float]:
@@ -427,18 +483,19 @@ def section_sim(quick: bool) -> tuple[float, float]:
     for threads in sorted({1, threads_all}):
         numba.set_num_threads(threads)
         clocks = {name: [0.0, 0.0] for name in kernels}
-        same = True
+        same, diverged = True, 0
         for start in range(0, b * k, chunk):
             sl = slice(start, start + chunk)
             outs = {}
             for name, kernel in kernels.items():
                 with Clock() as c:
                     outs[name] = run_kernel(kernel, refs[0][rows[sl]], refs[1][rows[sl]], cfg,
-                                            seeds[sl])
+                                            seeds[sl], outputs=True)
                 clocks[name][0] += c.cpu
                 clocks[name][1] += c.wall
             if "reference" in outs:
-                same &= np.array_equal(outs["new"], outs["reference"], equal_nan=True)
+                same &= compare_outputs(outs["new"], outs["reference"])[0]
+                diverged += int(np.sum(outs["new"]["status"][:, 0] != 0))
         ms = {name: [1e3 * v / (b * k) for v in cw] for name, cw in clocks.items()}
         ratio = ms["reference"][0] / ms["new"][0] if "reference" in ms else float("nan")
         for name in kernels:
@@ -446,7 +503,9 @@ def section_sim(quick: bool) -> tuple[float, float]:
                   f"{ratio:.2f} |" if name == "new" else
                   f"| {threads} | {name} | {ms[name][0]:.2f} | {ms[name][1]:.2f} | |")
         if "reference" in kernels:
-            print(f"| {threads} | theta_hat of every run bit-identical | {same} | | |")
+            print(f"| {threads} | theta_hat, summary, status of every run bit-identical | "
+                  f"{same} | | |")
+            print(f"| {threads} | runs that diverged | {diverged} of {b * k} | | |")
         if threads == threads_all:
             result = (ms["new"][0], ratio)
         if threads == 1:  # where the time goes: the same runs with the plain PID
@@ -459,6 +518,12 @@ def section_sim(quick: bool) -> tuple[float, float]:
             print(f"| 1 | new, controller=pid (no FRBF network) | {1e3 * c.cpu / (b * k):.2f} "
                   f"| {1e3 * c.wall / (b * k):.2f} | |")
     numba.set_num_threads(threads_all)
+    if reference is not None:  # what the problem reads, through the simulator's own path
+        same, line = compare_outputs(problem_outputs(problem, X, np.arange(k)),
+                                     problem_outputs(problem, X, np.arange(k),
+                                                     reference.batch_kernel))
+        print(f"\nproblem outputs of the {b} designs x {k} seeds, new vs reference kernel "
+              f"(bit-identical: {same}): {line}")
     return result
 
 

@@ -35,11 +35,16 @@ def _mean(values: list) -> str:
         f"{vals[0]:.4f}" if vals else "n/a")
 
 
-def stage_rows(sweep: Path, keys: list[str], reference: dict[str, str]) -> list[list[str]]:
+def stage_rows(sweep: Path, keys: list[str], reference: dict[str, str],
+               rescore: bool = False) -> list[list[str]]:
     """One row per setting: key values, runs, stage-two runs, switch iteration, mc, IGD, HV
-    and their p against the reference setting."""
+    and their p against the reference setting (``rescore``: IGD and HV recomputed from
+    the archives against today's fronts, as ``collect --rescore``)."""
+    from tmopt.reporting.anytime import rescored
+
     groups: dict[tuple, list[dict]] = defaultdict(list)
     for run in discover_runs(sweep):
+        run = rescored(run) if rescore else run
         if run.status == COMPLETE and "stage_reached" in run.metrics.get("algorithm_summary", {}):
             groups[tuple(run.value(k) for k in keys)].append(run.metrics)
     rows = []
@@ -67,6 +72,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="comma list of setting keys (group choices or dotted config keys)")
     ap.add_argument("--reference", default="algorithm.threshold=0.001,algorithm.gap=20",
                     help="KEY=VALUE,... of the setting each row is tested against")
+    ap.add_argument("--rescore", action="store_true",
+                    help="recompute IGD and HV from the archives against today's fronts")
     args = ap.parse_args(argv)
     if not args.sweep.is_dir():
         print(f"stage_study: sweep folder {args.sweep} does not exist", file=sys.stderr)
@@ -77,7 +84,7 @@ def main(argv: list[str] | None = None) -> int:
               "median mc (median)", "IGD", "p (IGD)", "HV", "p (HV)"]
     print("| " + " | ".join(header) + " |")
     print("|" + " --- |" * len(header))
-    for row in stage_rows(args.sweep, keys, reference):
+    for row in stage_rows(args.sweep, keys, reference, args.rescore):
         print("| " + " | ".join(row) + " |")
     return 0
 

@@ -117,3 +117,21 @@ def test_budget_below_the_population_is_refused():
 
 def test_yaml_matches_the_constructor():
     algorithm_from_yaml("ctsea")
+
+
+def test_reference_platemo_mates_as_platemos_matingselection1():
+    # PlatEMO overwrites the IGD-NS fitness with -inf: TournamentSelection then picks the
+    # lower index of each pair (its stable sort), i.e. a tournament on equal fitness
+    alg = CTSEA(pop_size=20, reference="platemo")
+    assert (alg.random_mating, alg.normalise) == (True, False)
+    res = run(alg, PymooBenchmark("mw3", n_var=6), budget=60)
+    assert len(res.archive) == 60
+    from tmopt.algorithms.operators.variation import tournament
+    rng_a, rng_b = np.random.default_rng(5), np.random.default_rng(5)
+    alg.rng = rng_a
+    alg.stage = 1
+    np.testing.assert_array_equal(alg._mating_stage_one(),
+                                  tournament(np.zeros(len(alg.pop["X"])), 20, rng_b))
+    with pytest.raises(AlgorithmConfigError, match="reference must be one of tmopt, "
+                                                   "platemo, got 'x'"):
+        CTSEA(reference="x")

@@ -19,6 +19,7 @@ from tmopt.algorithms.mgsaea import (
     MGSAEAStar,
     ModelPlan,
     _Set,
+    minmax_scaling,
     violation_scale,
 )
 from tmopt.algorithms.operators.stage import change_rate
@@ -305,3 +306,54 @@ def test_unconstrained_problem_runs_every_variant(cls):
 @pytest.mark.parametrize("name", ["mgsaea", "mgsaea_ipc", "mgsaea_star"])
 def test_yaml_matches_the_constructor(name):
     algorithm_from_yaml(name, surrogate=RBFDouble)
+
+
+# ---- reference="platemo": PlatEMO's behaviour for each documented fix --------------------
+def test_platemo_change_rate_has_no_absolute_value_and_explodes_on_negative_ideals():
+    # quirk 1: a negative ideal component makes PlatEMO's denominator its delta
+    assert change_rate([-1.001], [-1.0], sigma=1e-6, absolute=False) == pytest.approx(1e3)
+    assert change_rate([-1.001], [-1.0], sigma=1e-6) == pytest.approx(1e-3)
+    assert change_rate([2.002], [2.0], sigma=1e-6, absolute=False) == pytest.approx(1e-3)
+
+
+def test_platemo_minmax_scaling_maps_the_least_violating_design_to_feasible():
+    # quirk 3, NormalizeCV: (max(0, g) - min) / (max - min) per constraint, 0 where constant
+    G = np.array([[2.0, -1.0, 5.0], [1.0, 4.0, 5.0], [-3.0, -1.0, 5.0]])
+    plan = ModelPlan("coarse", "cdp", (0, 1, 2), False, "cdp", (0, 1, 2),
+                     **minmax_scaling(G))
+    np.testing.assert_allclose(plan.targets(np.zeros((3, 1)), G)[:, 1:],
+                               [[1.0, 0.0, 0.0], [0.5, 1.0, 0.0], [0.0, 0.0, 0.0]])
+    # every design violates the third constraint by 5, yet all count as satisfying it
+
+
+def test_reference_platemo_sets_every_documented_quirk_and_nothing_else():
+    alg = small(MGSAEAIPC, reference="platemo", sigma=1e-3, normalise=True)
+    assert (alg.abs_change_rate, alg.sigma, alg.violation_scaling, alg.skip_evaluated,
+            alg.normalise) == (False, 1e-6, "minmax", False, False)
+    assert (alg.gap, alg.threshold, alg.wmax, alg.mu) == (small(MGSAEAIPC).gap, 1e-3,
+                                                         small(MGSAEAIPC).wmax, 5)
+    with pytest.raises(AlgorithmConfigError, match="reference must be one of tmopt, "
+                                                   "platemo, got 'matlab'"):
+        small(MGSAEA, reference="matlab")
+    with pytest.raises(AlgorithmConfigError, match="violation_scaling must be 'max' or"):
+        small(MGSAEA, violation_scaling="minmax2")
+
+
+def test_platemo_may_send_an_already_evaluated_design_tmopt_never_does():
+    # quirk 4: the surrogate population starts from the real one, so its survivors can be
+    # designs already evaluated; here every candidate is
+    for skip in (False, True):
+        alg = small(MGSAEA, skip_evaluated=skip, mu=2)
+        alg.setup(TwoGroupProblem(), budget=100, seed=0)
+        X = alg.rng.random((6, 4))
+        alg._seen = X.copy()
+        P = np.column_stack([np.arange(6.0), -np.arange(6.0)])  # all non-dominated
+        chosen = alg._choose_infill(ModelPlan("objectives", "pareto"), X, P)
+        assert len(chosen) == 2
+        assert alg._already_seen(chosen).all() == (not skip)
+
+
+def test_reference_platemo_runs_end_to_end():
+    alg = small(MGSAEAIPC, reference="platemo")
+    res = run(alg, PymooBenchmark("mw3", n_var=6), budget=100)
+    assert len(res.archive) == 100 and res.metrics["feasible_ratio"] > 0

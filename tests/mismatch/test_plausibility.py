@@ -181,9 +181,6 @@ def test_nonsense_recordings_never_crash_nor_pass_as_consistent(nonsense):
     assert not [b for b in bad if b[1] == "no mismatch"], bad
 
 
-@pytest.mark.xfail(strict=True, reason="open (issue 20.4): 2 of 216 still get a catalogue "
-                   "name -- one channel shuffled (bias_drift [x1]) and one channel swap "
-                   "(stiffness_cross_coupling x1<-y1); docs/mismatch.md section 9.5")
 def test_nonsense_recordings_get_no_catalogue_name(nonsense):
     _, bad = nonsense
     assert not [b for b in bad if b[1] == "named"], bad
@@ -206,3 +203,23 @@ def test_short_recordings_say_why(bases, n):
 def test_an_all_zero_recording_is_refused_naming_a_channel(bases):
     got, detail = outcome(_zero(bases[0], None))
     assert got == "refused" and "constant channel" in detail, detail
+
+
+def test_each_axis_force_follows_its_own_readout(bases):
+    """The per-axis loop check (issue 20.4's last two named cases): on the clean bases of
+    both simulators every axis's force follows its own readout; a shuffled readout breaks
+    its axis's loop, and swapped readouts are followed by the other axis's force."""
+    from tmopt.mismatch.plausibility import check_axis_loops
+
+    rng = np.random.default_rng(7)
+    for rec in bases:
+        assert check_axis_loops(data_from_recording(validate(rec))).status == "ok"
+        perm = rng.permutation(rec.n_samples)
+        shuffled = check_axis_loops(data_from_recording(validate(
+            _with(rec, {"x1": rec["x1"][perm]}))))  # fmt: skip
+        assert shuffled.status == "fail" and "force on x1" in shuffled.detail, shuffled.detail
+        swapped = check_axis_loops(data_from_recording(validate(
+            _with(rec, {"x1": rec["y1"], "y1": rec["x1"]}))))  # fmt: skip
+        assert swapped.status == "fail", swapped.detail
+        assert "force on x1 follows the" in swapped.detail and "y1" in swapped.detail, \
+            swapped.detail  # fmt: skip

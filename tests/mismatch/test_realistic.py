@@ -158,3 +158,16 @@ def test_bad_backend_and_seed_are_refused_in_one_line():
     with pytest.raises(ValueError, match="seed must be an integer"):
         realistic_recording(short(0), seed=-1)
     assert AXES == ("x1", "x2", "y1", "y2")
+
+
+def test_a_tiny_actuation_delay_is_a_tiny_change_on_the_foreign_held_accelerometer():
+    """The held accelerometer reports the force over the step (its interval average where
+    a delayed command switches inside it), as the kernel does: a delay of 1e-6 s must not
+    shift the accelerometer by a whole sample (it did: the scaler then drove delays to
+    ~1e-14 s at SNR ~1e4)."""
+    sc = short(30036, "foreign", acc_convention="held", gaps=(), glitches=())
+    base, _ = realistic_recording(sc, (), (), 30036, "foreign")
+    late, _ = realistic_recording(sc, [Injection("actuation_delay", 1e-6, "x1")], (), 30036,
+                                  "foreign")  # fmt: skip
+    step = np.std(np.diff(base["force_x1"]))
+    assert np.max(np.abs(late["acc_x1"] - base["acc_x1"])) < 1e-3 * step

@@ -98,3 +98,18 @@ def test_prefix_scores_each_chosen_design_once_on_held_out_seeds(monkeypatch):
     assert [c["M"]["mean"] for c in chosen] == [10.0, 11.0, 11.0, 13.0]
     assert calls == [0, 1, 3]  # row 1 chosen at k = 2 and 3: simulated once
     assert "heldout" not in prefix_values(STIFFNESS_LIKE, data, 4)  # no cache: none
+
+
+def test_evaluations_by_a_time_follow_the_evaluation_clock():
+    from tmopt.reporting.anytime import evaluations_by, seconds_grid
+
+    clock = {"evaluations": [87, 92, 97], "seconds": [0.5, 1.0, 2.0]}
+    run = SimpleNamespace(status="complete", metrics={"evaluation_clock": clock,
+                                                      "resumed_from": 0})
+    assert [evaluations_by(run, t) for t in (0.1, 0.5, 1.5, 2.0)] == [0, 87, 92, 97]
+    assert evaluations_by(run, 2.5) is None  # the run had ended: not counted as reached
+    resumed = SimpleNamespace(status="complete", metrics={"evaluation_clock": clock,
+                                                          "resumed_from": 40})
+    assert evaluations_by(resumed, 1.0) is None  # its clock restarted at the resume
+    grid = seconds_grid([run])
+    assert grid[0] == pytest.approx(0.5) and grid[-1] == pytest.approx(2.0)

@@ -40,6 +40,8 @@ Quirks of the reference fixed here (docs/algorithms-mgsaea.md, "C-TSEA"):
       value exceeds 1); here it becomes ideal + 1.
     * AR-MOEA's ``UniformPoint`` adds an inner layer for many objectives; here one
       Das-Dennis layer (pymoo) with at most N points is used.
+``random_mating=True`` restores PlatEMO's uniform stage-one mating; ``reference="platemo"``
+sets it and ``normalise=False`` (the other quirks above are not reproduced).
 """
 
 from __future__ import annotations
@@ -203,8 +205,16 @@ class CTSEA(Algorithm):
 
     def __init__(self, *, pop_size: int = 100, stage_ratio: float = 0.5,
                  crossover_eta: float = 20.0, mutation_eta: float = 20.0,
-                 normalise: bool = True) -> None:
+                 normalise: bool = True, random_mating: bool = False,
+                 reference: str = "tmopt") -> None:
         super().__init__(pop_size=pop_size)
+        if reference not in ("tmopt", "platemo"):
+            raise AlgorithmConfigError(f"algorithm {self.name}: reference must be one of "
+                                       f"tmopt, platemo, got {reference!r}")
+        self.reference = reference
+        if reference == "platemo":  # PlatEMO's random stage-one mating, raw distances
+            random_mating, normalise = True, False
+        self.random_mating = bool(random_mating)
         if isinstance(stage_ratio, bool) or not isinstance(stage_ratio, (int, float)) \
                 or not 0.0 <= stage_ratio <= 1.0:
             raise AlgorithmConfigError(f"algorithm {self.name}: stage_ratio must be in "
@@ -241,6 +251,8 @@ class CTSEA(Algorithm):
         return self._variation(self.pop["X"][mates])
 
     def _mating_stage_one(self) -> np.ndarray:
+        if self.random_mating:  # PlatEMO's MatingSelection1: every fitness -inf
+            return tournament(np.zeros(len(self.pop["X"])), self.pop_size, self.rng)
         dist = adjusted_distance(self.pop["F"] - self.bounds[0], self.ref)
         return tournament(-removal_metric(dist), self.pop_size, self.rng)
 

@@ -256,7 +256,8 @@ class DRLSAEA(MGSAEA):
 
     def _make_plan(self) -> ModelPlan:
         G = self._pop.G
-        return granularity_plan(ACTIONS[self.action], choose_granularity(G)[1], G)
+        return granularity_plan(ACTIONS[self.action], choose_granularity(G)[1], G,
+                                minmax=self.violation_scaling == "minmax")
 
     def info(self) -> dict:
         out = super().info()

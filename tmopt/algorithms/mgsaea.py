@@ -100,6 +100,18 @@ log = logging.getLogger(__name__)
 SurrogateFactory = Callable[[], Surrogate]
 
 
+#: ``reference``: "tmopt" (the fixes of docs/algorithms-mgsaea.md, "Quirks of the
+#: references fixed here") or "platemo" (PlatEMO's MGSAEA.m behaviour for each of them).
+REFERENCES = ("tmopt", "platemo")
+#: What ``reference="platemo"`` sets (each can also be set alone to measure one fix):
+#: quirk 1 ``abs_change_rate`` (mc without |.| in the denominator), quirk 2 ``sigma``
+#: (PlatEMO's delta 1e-6), quirk 3 ``violation_scaling`` (NormalizeCV's min-max),
+#: quirk 4 ``skip_evaluated`` (already evaluated designs may be sent again), quirk 5
+#: ``normalise`` (raw objective distances in SPEA2).
+PLATEMO_SETTINGS = {"abs_change_rate": False, "sigma": 1e-6, "violation_scaling": "minmax",
+                    "skip_evaluated": False, "normalise": False}
+
+
 class AlgorithmStateError(RuntimeError):
     """The algorithm cannot continue (e.g. too few successful evaluations to fit models)."""
 
@@ -149,6 +161,10 @@ class ModelPlan:
         aggregate: One model of their summed scaled violation (coarse) instead of one
             model per constraint.
         pop_mode, pop_con: Ranking of the real population when it is updated.
+        scale, offset, clip: Constraint values enter the models as
+            ``(g - offset) / scale`` (``max(0, g)`` in place of g when ``clip``): tmopt
+            divides by the largest violation (:func:`violation_scale`, offset 0, signed);
+            PlatEMO min-max scales the violation (:func:`minmax_scaling`).
     """
 
     granularity: str
@@ -158,6 +174,8 @@ class ModelPlan:
     pop_mode: str = "pareto"
     pop_con: tuple[int, ...] = ()
     scale: np.ndarray = field(default_factory=lambda: np.ones(0), compare=False)
+    offset: np.ndarray | None = field(default=None, compare=False)
+    clip: bool = False
 
     @property
     def n_outputs_extra(self) -> int:
@@ -167,31 +185,57 @@ class ModelPlan:
         """Training outputs: objectives, then the scaled constraint(s)."""
         if not self.con:
             return F
-        C = G[:, list(self.con)] / self.scale[list(self.con)]
+        C = self.scaled(G, self.con)
         if self.aggregate:
             C = np.maximum(C, 0.0).sum(axis=1, keepdims=True)
         return np.hstack([F, C])
+
+    def scaled(self, G: np.ndarray, con: tuple[int, ...]) -> np.ndarray:
+        """Columns ``con`` of ``G`` as the models see them (see the class attributes)."""
+        cols = list(con)
+        V = np.maximum(G[:, cols], 0.0) if self.clip else G[:, cols]
+        if self.offset is not None:
+            V = V - self.offset[cols]
+        return V / self.scale[cols]
 
     def split(self, P: np.ndarray, n_obj: int) -> tuple[np.ndarray, np.ndarray]:
         """Predicted objectives and predicted total violation (clipped at zero)."""
         return P[:, :n_obj], np.maximum(P[:, n_obj:], 0.0).sum(axis=1)
 
 
-def granularity_plan(granularity: str, unsatisfied: np.ndarray, G: np.ndarray) -> ModelPlan:
+def minmax_scaling(G: np.ndarray) -> dict:
+    """PlatEMO's ``NormalizeCV``: ``(max(0, g) - min) / (max - min)`` per constraint over
+    ``G`` (0 where max = min). It maps the least-violating design to 0, i.e. "feasible",
+    even when every design violates the constraint (docs/algorithms-mgsaea.md, quirk 3).
+    Returns the :class:`ModelPlan` fields ``scale``, ``offset``, ``clip``."""
+    V = np.maximum(G, 0.0)
+    lo = V.min(axis=0) if len(G) else np.zeros(G.shape[1])
+    span = (V.max(axis=0) - lo) if len(G) else np.zeros(G.shape[1])
+    return {"scale": np.where(span > 0, span, np.inf), "offset": lo, "clip": True}
+
+
+def plan_scaling(G: np.ndarray, minmax: bool = False) -> dict:
+    """The :class:`ModelPlan` scaling fields for constraint values ``G``: tmopt's
+    (:func:`violation_scale`) or, with ``minmax``, PlatEMO's (:func:`minmax_scaling`)."""
+    return minmax_scaling(G) if minmax else {"scale": violation_scale(G)}
+
+
+def granularity_plan(granularity: str, unsatisfied: np.ndarray, G: np.ndarray,
+                     minmax: bool = False) -> ModelPlan:
     """The stage-two plan of a granularity (TNNLS Sec. III) for the real population's
     constraint values ``G``: "coarse" (one model of the total scaled violation, CDP),
     "fine" (one model per constraint in ``unsatisfied``, summed violation an extra
     objective) or "objectives" (objective models only, SPEA2; the real population
-    by CDP)."""
-    scale = violation_scale(G)
+    by CDP). ``minmax``: PlatEMO's violation scaling."""
+    sc = plan_scaling(G, minmax)
     every = tuple(range(G.shape[1]))
     if granularity == "coarse":
-        return ModelPlan("coarse", "cdp", every, True, "cdp", every, scale)
+        return ModelPlan("coarse", "cdp", every, True, "cdp", every, **sc)
     if granularity == "fine":
         con = tuple(int(i) for i in unsatisfied)
-        return ModelPlan("fine", "fine", con, False, "fine", every, scale)
+        return ModelPlan("fine", "fine", con, False, "fine", every, **sc)
     if granularity == "objectives":
-        return ModelPlan("objectives", "pareto", (), False, "cdp", every, scale)
+        return ModelPlan("objectives", "pareto", (), False, "cdp", every, **sc)
     raise ValueError(f"unknown granularity {granularity!r}")
 
 
@@ -217,9 +261,26 @@ class MGSAEA(Algorithm):
                  threshold: float = 1e-3, sigma: float = 1e-3, n_init: int | None = None,
                  max_iter: int | None = 100, crossover_eta: float = 20.0,
                  mutation_eta: float = 20.0, normalise: bool = True,
+                 violation_scaling: str = "max", skip_evaluated: bool = True,
+                 abs_change_rate: bool = True, reference: str = "tmopt",
                  surrogate: SurrogateFactory | None = None) -> None:
         super().__init__(pop_size=pop_size)
         name = self.name
+        if reference not in REFERENCES:
+            raise AlgorithmConfigError(f"algorithm {name}: reference must be one of "
+                                       f"{', '.join(REFERENCES)}, got {reference!r}")
+        if violation_scaling not in ("max", "minmax"):
+            raise AlgorithmConfigError(f"algorithm {name}: violation_scaling must be 'max' "
+                                       f"or 'minmax', got {violation_scaling!r}")
+        self.reference = reference
+        if reference == "platemo":  # every documented fix undone (PLATEMO_SETTINGS)
+            sigma, normalise = PLATEMO_SETTINGS["sigma"], PLATEMO_SETTINGS["normalise"]
+            violation_scaling = PLATEMO_SETTINGS["violation_scaling"]
+            skip_evaluated = PLATEMO_SETTINGS["skip_evaluated"]
+            abs_change_rate = PLATEMO_SETTINGS["abs_change_rate"]
+        self.violation_scaling = violation_scaling
+        self.skip_evaluated = bool(skip_evaluated)
+        self.abs_change_rate = bool(abs_change_rate)
         self.wmax = check_int(name, "wmax", wmax, 0)
         self.mu = check_int(name, "mu", mu, 1)
         self.gap = check_int(name, "gap", gap, 1)
@@ -324,7 +385,7 @@ class MGSAEA(Algorithm):
         self._ideal.append(self._pop.F.min(axis=0))
         if self.stage == 1 and len(self._ideal) > self.gap:
             self.last_mc = change_rate(self._ideal[-1], self._ideal[-1 - self.gap],
-                                       sigma=self.sigma)
+                                       sigma=self.sigma, absolute=self.abs_change_rate)
             self._mc_trace.append(self.last_mc)
             if self.last_mc <= self.threshold:
                 self.stage = 2
@@ -334,14 +395,14 @@ class MGSAEA(Algorithm):
 
     def _make_plan(self) -> ModelPlan:
         G = self._pop.G
+        minmax = self.violation_scaling == "minmax"
         if self.stage == 1:
-            scale = violation_scale(G)
             con = self._stage_one_con
             label = {"none": "objectives", "key": "key", "all": "all"}[
                 self.stage_one_constraints]
             mode = "cdp" if con else "pareto"
-            return ModelPlan(label, mode, con, False, mode, con, scale)
-        return granularity_plan(*choose_granularity(G), G)
+            return ModelPlan(label, mode, con, False, mode, con, **plan_scaling(G, minmax))
+        return granularity_plan(*choose_granularity(G), G, minmax=minmax)
 
     def _fit(self, plan: ModelPlan) -> Surrogate:
         """Fit one (multi-output) surrogate of every modelled output at once.
@@ -401,6 +462,9 @@ class MGSAEA(Algorithm):
         starts from the real one); spending a real evaluation on it gains nothing, so such
         designs are left out. If none is left, random designs are sent instead.
         """
+        if not self.skip_evaluated:  # PlatEMO: any surrogate survivor may be sent
+            keep, _ = self._select(plan, P, self.mu)
+            return X[keep]
         new = ~self._already_seen(X)
         if not new.any():
             log.warning("%s: every surrogate candidate is already evaluated; sending %d "
@@ -440,18 +504,19 @@ class MGSAEA(Algorithm):
         if len(pop) > n_keep:
             plan = self._plan
             both = _Set.join(pop, new)
-            cv = self._scaled_cv(both, plan.pop_con, violation_scale(both.G))[: len(pop)]
+            scaling = ModelPlan("", "", **plan_scaling(
+                both.G, self.violation_scaling == "minmax"))
+            cv = self._scaled_cv(both, plan.pop_con, scaling)[: len(pop)]
             fit = rank_fitness(plan.pop_mode, pop.F, cv, self.normalise)
             pop = pop.take(environmental_selection(fit, pop.F, n_keep,
                                                    normalise=self.normalise))
         return _Set.join(pop, new)
 
     @staticmethod
-    def _scaled_cv(s: _Set, con: tuple[int, ...], scale: np.ndarray) -> np.ndarray:
+    def _scaled_cv(s: _Set, con: tuple[int, ...], scaling: ModelPlan) -> np.ndarray:
         if not con:
             return np.zeros(len(s))
-        cols = list(con)
-        return constraint_violation(s.G[:, cols] / scale[cols])
+        return constraint_violation(scaling.scaled(s.G, con))
 
     def _update_elite(self, new: _Set) -> _Set:
         """Elite set of size N: union, duplicates (objectives) removed, constrained SPEA2."""

@@ -287,7 +287,11 @@ def run_foreign(plan) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
         early = [applied_cmd(a, i - lag[a] - 1) if split[a] > 0 else applied_cmd(a, i - lag[a])
                  for a in range(4)]  # fmt: skip
         late = [applied_cmd(a, i - lag[a]) for a in range(4)]
-        acc_held = accel(tt, i, r, v, early)
+        # the held accelerometer: k r(t_n) plus the force over [t_n, t_n+1) -- its interval
+        # average where a delayed command switches inside the step (the force at the
+        # instant t_n alone would make any delay > 0 a whole-sample jump)
+        over_step = [(split[a] * early[a] + (h - split[a]) * late[a]) / h for a in range(4)]
+        acc_held = accel(tt, i, r, v, over_step)
         v0 = list(v)
         cut = max(split) if any(s > 0 for s in split) else 0.0
         if cut > 0:

@@ -16,7 +16,16 @@ penalty, like any candidate:
 * ``curvature`` -- ``(t - t_mid)^2``: a bias that changes non-linearly (the catalogue's
   drift is linear);
 * ``line`` -- a sinusoid at a searched frequency away from the excitation tones (2
-  columns).
+  columns);
+* ``nonlinear force`` -- the even and sign-odd terms of a force's Taylor/nonlinearity
+  expansion that the catalogue lacks: ``x_a |x_a|`` and ``x_a^2`` (position), ``f_a |f_a|``
+  (actuation).  The catalogue's only nonlinear term is ``k3 x^3``; under a multi-tone
+  excitation each of these has its own harmonics and intermodulation lines (``x^2``:
+  even harmonics and ``f_i +- f_j``; ``x|x|``: odd harmonics in other ratios than
+  ``x^3``), so when one of them fits better than ``x^3`` the cubic name is not given;
+* ``product`` -- ``x_a y_a`` on either axis of a test mass: a bilinear coupling, lines at
+  ``f_x +- f_y`` that neither a linear cross-coupling (lines at ``f_y``) nor a smooth
+  noise spectrum has.
 
 When one of them explains the residual better (larger delta-BIC) than every catalogue
 effect, it enters the model -- so the residual is cleaned and the search goes on -- but it
@@ -158,8 +167,48 @@ def _lines(ctx: Context) -> list[Candidate]:
                            f"({TMS[AXES[a]]}), unrelated to the excitation tones")]  # fmt: skip
 
 
+def _series_candidate(ctx: Context, a: int, kind: str, series: np.ndarray, unit: str,
+                      text: str) -> Candidate:  # fmt: skip
+    col = Column(f"{GENERIC}:{kind}[{AXES[a]}]", axis_column(ctx.basis, a, series))
+    return Candidate(GENERIC, AXES[a], "equation", [kind], [unit], [col], None,
+                     fixed={"feature": kind},
+                     text=f"unexplained: {text} on {AXES[a]} ({TMS[AXES[a]]})")  # fmt: skip
+
+
+def _nonlinear(ctx: Context) -> list[Candidate]:
+    """``x|x|``, ``x^2`` and ``f|f|`` per axis (about the readout's zero, the housing's
+    centre, as the catalogue's ``x^3``)."""
+    d = ctx.data
+    out = []
+    for a in range(4):
+        x, f = d.x_eq[a], d.force[a]
+        out += [
+            _series_candidate(ctx, a, "x|x| force", x * np.abs(x), "m^-1 s^-2",
+                              "a nonlinear force kappa x|x| (not the catalogue's cubic)"),
+            _series_candidate(ctx, a, "x^2 force", x**2, "m^-1 s^-2",
+                              "a quadratic (even) stiffness term x^2"),
+            _series_candidate(ctx, a, "f|f| actuation", f * np.abs(f), "s^2 m^-1",
+                              "a nonlinear actuation term f|f|"),
+        ]  # fmt: skip
+    return out
+
+
+def _products(ctx: Context) -> list[Candidate]:
+    """``x y`` of one test mass on either of its axes."""
+    d = ctx.data
+    out = []
+    for a, b in ((0, 2), (1, 3)):  # (x1, y1), (x2, y2)
+        xy = d.x_eq[a] * d.x_eq[b]
+        for on in (a, b):
+            out.append(_series_candidate(ctx, on, "x*y product", xy, "m^-1 s^-2",
+                                         f"a bilinear coupling {AXES[a]}*{AXES[b]} (lines at "
+                                         "f_x +- f_y)"))  # fmt: skip
+    return out
+
+
 def candidates(ctx: Context) -> list[Candidate]:
     """The generic features' best variants for this residual (see the module docstring)."""
     if ctx.eq_residual is None or ctx.eq_noise is None or ctx.data.n < 64:
         return []
-    return _steps(ctx) + _stiffness_steps(ctx) + _curvatures(ctx) + _lines(ctx)
+    return (_steps(ctx) + _stiffness_steps(ctx) + _curvatures(ctx) + _lines(ctx)
+            + _nonlinear(ctx) + _products(ctx))  # fmt: skip

@@ -24,7 +24,13 @@ the noise levels:
   closed loop is a causal function of past readouts; a low-order linear model
   ``f_n ~ f_{n-1}, f_{n-2}, e_n, e_{n-1}, e_{n-2}`` (e = reference - readout) fitted in
   short windows (adaptive gains allowed) explains most of its variance on some axis.  If
-  no axis shows this, the data are not a closed loop (or are shuffled).
+  no axis shows this, the data are not a closed loop (or are shuffled);
+* **each axis's own loop**: the force of each axis follows *its own* readout.  The
+  controller feeds the readout (and its noise) into the force; in short windows, the
+  readout's lags ``x_n, x_{n-1}, x_{n-2}`` must add significantly (F-test) to what the
+  force's own past and the axis's reference explain.  A shuffled readout adds nothing; a
+  swapped one is followed by the *other* axis's force.  The test compares each axis with
+  the recording's own other axes, so it needs no controller gains or noise levels.
 
 Each test gives ``ok`` (verified), ``unknown`` (cannot tell: e.g. no motion) or
 ``fail``; any ``fail``, or no positive evidence of a closed loop at all, refuses the
@@ -42,7 +48,8 @@ import numpy as np
 
 from tmopt.mismatch.fit import AXES, Data, null_basis, tone_instrument
 
-__all__ = ["MIN_SAMPLES", "Check", "Verdict", "precheck", "implausible_effects"]
+__all__ = ["MIN_SAMPLES", "Check", "Verdict", "precheck", "implausible_effects",
+           "loop_attribution"]
 
 #: Fewest samples (in gap-free segments) a diagnosis accepts.
 MIN_SAMPLES = 256
@@ -56,6 +63,14 @@ SLOPE_SE_OK = 0.1
 #: Windowed R^2 of the causal controller model: above it the force follows the readouts.
 LOOP_R2_OK = 0.5
 CONTROLLER_WINDOW = 64
+#: Per-window F-test level of "the force depends on this readout" ...
+FOLLOW_P = 0.01
+#: ... and the fraction of windows that must pass it: under "no dependence" about FOLLOW_P
+#: of them do (binomially), under a closed loop nearly all; one half separates the two
+#: by many standard errors for the >= 4 windows a minimal recording has.
+FOLLOW_FRACTION = 0.5
+#: Windows per axis pair for the per-axis loop test (spread over the record).
+FOLLOW_WINDOWS = 100
 
 
 @dataclass
@@ -145,20 +160,31 @@ def check_force_acc(data: Data) -> Check:
     """Slope of N'acc on N'force (f_B-free combinations), the stiffness terms N'(k x)
     removed by regression; first differences suppress slow drifts.  The force channels
     are tried at whole-sample lags -2..2 (a timestamp convention, which the diagnosis
-    aligns: :func:`tmopt.mismatch.fit.align_force_timing`) and the best-fitting lag is
-    judged."""
+    aligns: :func:`tmopt.mismatch.fit.align_force_timing`), and each axis's force one
+    sample later still (an actuation delay of a fraction of a step on one axis puts the
+    previous command under an accelerometer sampled at the step's start).  The timing at
+    which the force explains most of the acceleration (largest summed ``(slope/se)^2``)
+    is judged.  (Not the total R^2: the stiffness terms dominate it, and the rows differ
+    slightly between lags across gaps -- a lag at which the force explained nothing was
+    once chosen and a consistent recording refused.)"""
+    import itertools
+
     basis = null_basis(data.geometry)
     best = None
     for lag in range(-2, 3):
-        vals = _force_acc_slopes(data, basis, lag)
-        if vals is None:
+        pieces = _force_acc_pieces(data, lag)
+        if pieces is None:
             continue
-        score = sum(v["r2"] for v in vals.values())
-        if best is None or score > best[0]:
-            best = (score, lag, vals)
+        for extra in itertools.product((0, 1), repeat=4):
+            vals = _force_acc_slopes(pieces, basis, extra)
+            score = sum((v["slope"] / v["se"]) ** 2 for v in vals.values()
+                        if math.isfinite(v["slope"]) and v["se"] > 0)  # fmt: skip
+            if best is None or score > best[0]:
+                best = (score, (lag, extra), vals)
     if best is None:
         return Check("force vs acceleration", "unknown", "too few samples")
-    _, lag, vals = best
+    _, (lag, extra), vals = best
+    late = [AXES[a] for a in range(4) if extra[a]]
     fails, oks = [], []
     for j, v in enumerate(vals.values()):
         b, se = v["slope"], v["se"]
@@ -166,12 +192,14 @@ def check_force_acc(data: Data) -> Check:
             fails.append(f"{b:.3g} +- {se:.2g} in combination {j + 1}")
         elif se < SLOPE_SE_OK and abs(b - 1) <= SLOPE_TOLERANCE:
             oks.append(j)
-    vals = {**vals, "force_lag_samples": lag}
+    vals = {**vals, "force_lag_samples": lag, "one_sample_later_on": late}
     if fails:
         return Check("force vs acceleration", "fail",
                      "the measured accelerations do not follow the commanded forces (slope "
                      f"of acc on force {'; '.join(fails)} in Eq. 10's f_B-free combinations, "
-                     f"at the best force timing (lag {lag}); a closed loop gives 1 up to a "
+                     f"at the best force timing (lag {lag}"
+                     f"{', one more on ' + ', '.join(late) if late else ''}); a closed loop "
+                     "gives 1 up to a "
                      "gain error of a few %): unrelated, swapped or rescaled channels?",
                      vals)  # fmt: skip
     if oks:
@@ -180,18 +208,32 @@ def check_force_acc(data: Data) -> Check:
                  "the forces are too small to verify the relation", vals)  # fmt: skip
 
 
-def _force_acc_slopes(data: Data, basis: np.ndarray, lag: int) -> dict | None:
+def _force_acc_pieces(data: Data, lag: int) -> dict | None:
+    """First differences (within segments, each segment's first sample left out: its
+    lagged force lies in another) of acc, x and the force at ``lag`` and one sample
+    later, per axis."""
     from tmopt.mismatch.fit import _shifted
 
     d = _shifted(data, lag)
     if d.n < 16:
         return None
-    ya, yf = basis.T @ d.acc, basis.T @ d.force
+    diff = lambda v: _diff_in_segments(d, v, skip=1)  # noqa: E731
+    return {"acc": np.array([diff(d.acc[a]) for a in range(4)]),
+            "x": np.array([diff(d.x[a]) for a in range(4)]),
+            "force": [np.array([diff(d.force[a]) for a in range(4)]),
+                      np.array([diff(d.lagged(d.force[a], 1)) for a in range(4)])]}  # fmt: skip
+
+
+def _force_acc_slopes(pieces: dict, basis: np.ndarray, extra: tuple[int, ...]) -> dict:
+    """Per combination: slope of the differenced N'acc on N'force (the force one sample
+    later on the axes where ``extra`` is 1), the stiffness terms N'(k x) regressed out,
+    with its standard error and R^2."""
+    force = np.array([pieces["force"][e][a] for a, e in enumerate(extra)])
     out = {}
     for j in range(2):
-        y = _diff_in_segments(d, ya[j])
-        f = _diff_in_segments(d, yf[j])
-        xs = np.array([_diff_in_segments(d, basis[a, j] * d.x[a]) for a in range(4)])
+        y = basis[:, j] @ pieces["acc"]
+        f = basis[:, j] @ force
+        xs = basis[:, j, None] * pieces["x"]
         design = np.column_stack([f] + list(xs))
         coef, *_ = np.linalg.lstsq(design, y, rcond=None)
         res = y - design @ coef
@@ -205,8 +247,8 @@ def _force_acc_slopes(data: Data, basis: np.ndarray, lag: int) -> dict | None:
     return out
 
 
-def _diff_in_segments(data: Data, v: np.ndarray) -> np.ndarray:
-    return np.concatenate([np.diff(v[a:b]) for a, b in data.segments])
+def _diff_in_segments(data: Data, v: np.ndarray, skip: int = 0) -> np.ndarray:
+    return np.concatenate([np.diff(v[a + skip : b]) for a, b in data.segments])
 
 
 def check_kinematics(data: Data) -> Check:
@@ -280,11 +322,124 @@ def check_controller(data: Data) -> Check:
                  " not a closed-loop recording, or its samples are shuffled", vals)
 
 
+def _windows(data: Data, w: int, most: int) -> list[int]:
+    """Start indices of up to ``most`` windows of ``w`` samples (two lags before each
+    inside its gap-free segment), spread evenly over the record."""
+    starts = [k for s0, s1 in data.segments for k in range(s0 + 2, s1 - w + 1, w)]
+    if len(starts) > most:
+        starts = [starts[i] for i in np.linspace(0, len(starts) - 1, most).round().astype(int)]
+    return starts
+
+
+def _lags(v: np.ndarray, starts: list[int], w: int, lags: tuple[int, ...]) -> np.ndarray:
+    """(windows, w, len(lags)): ``v[n - lag]`` over each window."""
+    return np.stack([np.column_stack([v[k - j : k - j + w] for j in lags]) for k in starts])
+
+
+def _rss(design: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Residual sum of squares of y on each window's design (batched least squares),
+    columns scaled first (readouts ~1e-9 m beside forces ~1e-9 m s^-2)."""
+    scale = np.sqrt(np.sum(design**2, axis=1, keepdims=True))
+    q, r = np.linalg.qr(design / np.where(scale > 0, scale, 1.0))
+    # rank-deficient windows (a constant reference): drop the null directions' columns
+    keep = np.abs(np.diagonal(r, axis1=1, axis2=2)) > 1e-10
+    qy = np.einsum("wnp,wn->wp", q, y) * keep
+    return np.sum(y**2, axis=1) - np.sum(qy**2, axis=1)
+
+
+def loop_attribution(data: Data) -> tuple[np.ndarray, np.ndarray]:
+    """How the force of axis ``a`` (row) depends on the readout of axis ``b`` (column),
+    in windows of :data:`CONTROLLER_WINDOW` samples: the readout's lags ``x_b[n],
+    x_b[n-1], x_b[n-2]`` added to ``1, f_a[n-1], f_a[n-2]`` and the reference of ``a``
+    (its three lags) -- the terms of a 2nd-order discrete controller acting on
+    ``ref_a - x_a``.  Returns two (4, 4) arrays: the fraction of windows in which the
+    addition is significant (F-test at :data:`FOLLOW_P`), and the median over windows of
+    ``log10(RSS_with / RSS_without)`` (how much of the force's innovation the readout
+    explains).  NaN where no window has force variation left to explain."""
+    from scipy import stats
+
+    w = CONTROLLER_WINDOW
+    starts = _windows(data, w, FOLLOW_WINDOWS)
+    frac, logr = np.full((4, 4), math.nan), np.full((4, 4), math.nan)
+    if not starts:
+        return frac, logr
+    for a in range(4):
+        f = data.force[a]
+        y = np.stack([f[k : k + w] for k in starts])
+        base = [np.ones((len(starts), w, 1)), _lags(f, starts, w, (1, 2))]
+        if data.ref is not None and a < 2:
+            base.append(_lags(data.ref[a], starts, w, (0, 1, 2)))
+        base = np.concatenate(base, axis=2)
+        rss0 = _rss(base, y)
+        live = rss0 > 1e-12 * np.sum(y**2, axis=1)
+        if not live.any():
+            continue
+        dof = w - base.shape[2] - 3
+        crit = stats.f.ppf(1 - FOLLOW_P, 3, dof)
+        for b in range(4):
+            rss1 = _rss(np.concatenate([base, _lags(data.x[b], starts, w, (0, 1, 2))], 2), y)
+            rss1, r0 = np.maximum(rss1[live], 1e-300), rss0[live]
+            frac[a, b] = float(np.mean((r0 - rss1) / 3 / (rss1 / dof) > crit))
+            logr[a, b] = float(np.median(np.log10(rss1 / r0)))
+    return frac, logr
+
+
+#: Another axis's readout explains an axis's force "instead" when it leaves this many
+#: decades less of its innovation than the axis's own readout (a closed loop's own
+#: readout leaves 1-280 decades less than any other on both simulators' recordings).
+SWAP_DECADES = 1.0
+
+
+def check_axis_loops(data: Data) -> Check:
+    """Each axis's force follows its own readout (:func:`loop_attribution`): refuse when
+    an axis's force does not depend on its own readout while other axes' forces depend
+    on theirs (a shuffled or unrelated readout, or that axis alone not under closed-loop
+    control, which this tool's model does not cover), or when another axis's readout
+    explains it decisively better (swapped channels)."""
+    frac, logr = loop_attribution(data)
+    vals = {"follows": {AXES[a]: {AXES[b]: float(frac[a, b]) for b in range(4)}
+                        for a in range(4)},
+            "log10_residual": {AXES[a]: {AXES[b]: float(logr[a, b]) for b in range(4)}
+                               for a in range(4)}}  # fmt: skip
+    closed = [a for a in range(4) if frac[a, a] >= FOLLOW_FRACTION]
+    if not closed:
+        return Check("each axis's own loop", "unknown",
+                     "no axis's force verifiably follows its own readout", vals)  # fmt: skip
+    broken, bad = [], set()
+    for a in range(4):
+        if not math.isfinite(frac[a, a]):
+            continue
+        better = [AXES[b] for b in range(4)
+                  if b != a and logr[a, b] < logr[a, a] - SWAP_DECADES]  # fmt: skip
+        if better:
+            bad.add(a)
+            broken.append(f"the force on {AXES[a]} follows the {' and '.join(better)} "
+                          f"readout rather than its own (residual 10^{logr[a, a]:.1f} of "
+                          f"its innovation with its own, "
+                          f"10^{min(logr[a, AXES.index(b)] for b in better):.1f} with "
+                          "the other)")  # fmt: skip
+        elif frac[a, a] < FOLLOW_FRACTION:
+            bad.add(a)
+            broken.append(f"the force on {AXES[a]} does not follow its own readout "
+                          f"(significant in {frac[a, a]:.0%} of windows)")  # fmt: skip
+    fine = [AXES[a] for a in closed if a not in bad]
+    if broken:
+        return Check("each axis's own loop", "fail",
+                     "; ".join(broken)
+                     + (f", while the force on {', '.join(fine)} follows its own readout"
+                        if fine else "")
+                     + f" ({CONTROLLER_WINDOW}-sample windows): "
+                     "a shuffled, swapped or unrelated readout channel (or an axis not "
+                     "under closed-loop control)?", vals)  # fmt: skip
+    return Check("each axis's own loop", "ok",
+                 "every axis's force follows its own readout", vals)  # fmt: skip
+
+
 def precheck(data: Data) -> Verdict:
     """The checks of the module docstring, cheapest first; stops at the first refusal."""
     checks: list[Check] = []
     for fn in (check_length, check_live, check_excitation, check_force_acc, check_kinematics,
-               check_controller):
+               check_controller, check_axis_loops):
         c = fn(data)
         checks.append(c)
         if c.status == "fail":

@@ -3,8 +3,12 @@
 Every step function here is ``register_jitable``: numba compiles it into the batched
 kernel, while a plain Python call runs the very same source in the interpreter.  The
 per-design reference loop of the benchmark (``run_design`` called from Python) is hence
-the same model, line for line, as the compiled batch.  All compiled code lives in this one
-file because numba's on-disk cache only watches the file of the cached function.
+the same model, line for line, as the compiled batch.  The batch kernel runs the nominal model
+in lock-step groups (``run_group``: the run is the SIMD lane, each lane doing
+``run_design``'s operations in the same order, so the same bits); ``run_design`` itself
+runs the perturbed model and is the reference the groups are tested against.  All
+compiled code lives in this one file because numba's on-disk cache only watches the file
+of the cached function.
 
 Units are SI per unit mass throughout: positions m, forces m s^-2, stiffness s^-2.
 """
@@ -187,16 +191,24 @@ def frbf_learn(x1, x2, g, c, b, w, dc, db, dw, f3, q, eta, mom, bmin, s):
 @register_jitable
 def _learn_membership(i, j, x, s, c, b, dc, db, eta, mom, bmin):
     """Centre/width step for one membership; ``s = sum over its rules of dE/df3 f3``."""
-    d = x - c[i, j]
-    bb = b[i, j]
+    c[i, j], dc[i, j], b[i, j], db[i, j] = membership_step(
+        x, s, c[i, j], b[i, j], dc[i, j], db[i, j], eta, mom, bmin)
+
+
+@register_jitable
+def membership_step(x, s, c, bb, dc, db, eta, mom, bmin):
+    """Eqs. 26-27 for one Gaussian membership -> new (c, dc, b, db).
+
+    ``df2/dc = 2 (x - c) / b^2 f2`` and ``df2/db = 2 (x - c)^2 / b^3 f2``; ``s`` is the sum
+    over the membership's rules of ``dE/df3 f3``; the width is kept >= ``bmin``.
+    """
+    d = x - c
     grad_c = s * 2.0 * d / (bb * bb)
     grad_b = s * 2.0 * d * d / (bb * bb * bb)
-    step_c = -eta * grad_c + mom * dc[i, j]
-    step_b = -eta * grad_b + mom * db[i, j]
-    c[i, j] += step_c
-    dc[i, j] = step_c
-    b[i, j] = max(bb + step_b, bmin)
-    db[i, j] = b[i, j] - bb
+    step_c = -eta * grad_c + mom * dc
+    step_b = -eta * grad_b + mom * db
+    b = max(bb + step_b, bmin)
+    return c + step_c, step_c, b, b - bb
 
 
 @register_jitable
@@ -407,6 +419,14 @@ def run_design(
         if code != OK:
             last = n
             break
+    end_run(i, code, last, par, out_th, out_ch, out_gain, status, record)
+
+
+@register_jitable
+def end_run(i, code, last, par, out_th, out_ch, out_gain, status, record):
+    """Status of run ``i``; after a divergence at sample ``last`` its outputs hold their
+    last finite values to the end (finite, never NaN)."""
+    n_steps = out_th.shape[1]
     status[i, 0] = code
     status[i, 1] = last
     if code == BAD_FORCE or code == BAD_ESTIMATE:
@@ -575,14 +595,33 @@ def _frbf_pid_axis(
     zero while the output sits at the limit (the applied force then does not depend on the
     gains) and where the gain multiplier is clipped.
     """
-    x1 = _clip1(e / par[P_ESCALE])
-    x2 = _clip1((e - e1) / dt / par[P_ECSCALE])
+    x1, x2 = frbf_inputs(e, e1, par, dt)
     frbf_forward(x1, x2, c, b, w, f2, f3, f4)
-    lo, hi = par[P_GLO], par[P_GHI]
     for m in range(3):
-        gains[at + m] = par[P_XGAIN + m] * min(max(1.0 + f4[m], lo), hi)
+        gains[at + m] = frbf_gain(m, f4[m], par)
+    u = pid_increment(e, e1, e2, u_prev, gains[at], gains[at + 1], gains[at + 2], par[P_FMAX])
+    g[0], g[1], g[2] = frbf_gradient(e, e1, e2, u, u_prev, dy, x1, f4[0], f4[1], f4[2], par)
+    frbf_learn(x1, x2, g, c, b, w, dc, db, dw, f3, q, par[P_ETA], par[P_MOM], par[P_BMIN],
+               msum)
+    return u
+
+
+@register_jitable
+def frbf_inputs(e, e1, par, dt):
+    """Eq. 22's network inputs ``e / e_scale`` and ``(de/dt) / ec_scale``, clipped to [-1, 1]."""
+    return _clip1(e / par[P_ESCALE]), _clip1((e - e1) / dt / par[P_ECSCALE])
+
+
+@register_jitable
+def frbf_gain(m, f4m, par):
+    """Eq. 28's gain ``K_m = base_m clip(1 + f4_m, glo, ghi)``."""
+    return par[P_XGAIN + m] * min(max(1.0 + f4m, par[P_GLO]), par[P_GHI])
+
+
+@register_jitable
+def frbf_gradient(e, e1, e2, u, u_prev, dy, x1, f40, f41, f42, par):
+    """``dE/df4_m`` (see :func:`_frbf_pid_axis`) for the command ``u`` that followed ``u_prev``."""
     fmax = par[P_FMAX]
-    u = pid_increment(e, e1, e2, u_prev, gains[at], gains[at + 1], gains[at + 2], fmax)
     jac = 1.0
     if par[P_JAC] > 0.5:  # the classic online estimate sign(dy/du) from the last step
         s = dy * (u - u_prev)
@@ -590,15 +629,12 @@ def _frbf_pid_axis(
     if abs(u) >= fmax:
         jac = 0.0
     common = -x1 * jac / fmax
-    g[0] = common * par[P_XGAIN] * (e - e1)
-    g[1] = common * par[P_XGAIN + 1] * e
-    g[2] = common * par[P_XGAIN + 2] * (e - 2.0 * e1 + e2)
-    for m in range(3):
-        if not (lo < 1.0 + f4[m] < hi):
-            g[m] = 0.0
-    frbf_learn(x1, x2, g, c, b, w, dc, db, dw, f3, q, par[P_ETA], par[P_MOM], par[P_BMIN],
-               msum)
-    return u
+    lo, hi = par[P_GLO], par[P_GHI]
+    # zero where the gain multiplier is clipped (the force does not depend on f4_m there)
+    g0 = common * par[P_XGAIN] * (e - e1) if lo < 1.0 + f40 < hi else 0.0
+    g1 = common * par[P_XGAIN + 1] * e if lo < 1.0 + f41 < hi else 0.0
+    g2 = common * par[P_XGAIN + 2] * (e - 2.0 * e1 + e2) if lo < 1.0 + f42 < hi else 0.0
+    return g0, g1, g2
 
 
 @register_jitable
@@ -621,30 +657,404 @@ def _record(i, n, pos_n, meas, acc, u, gains, par, ref, out_ch, out_gain, summar
         if abs(u[a]) > summary[i, SUM_UMAX + a]:
             summary[i, SUM_UMAX + a] = abs(u[a])
     if record:
+        _store_channels(i, n, pos_n, meas, acc, u, gains, out_ch, out_gain)
+
+
+@register_jitable
+def _store_channels(i, n, pos_n, meas, acc, u, gains, out_ch, out_gain):
+    """Sample n of run i into the recorded channels (layout: N_CH) and gains (N_GAIN)."""
+    for a in range(4):
+        out_ch[a, i, n] = pos_n[a]
+        out_ch[4 + a, i, n] = meas[a]
+        out_ch[8 + a, i, n] = acc[a]
+        out_ch[12 + a, i, n] = u[a]
+    for k in range(N_GAIN):
+        out_gain[k, i, n] = gains[k]
+
+
+# ---- the lock-step kernel: a group of runs advanced together, one lane per run ----------
+# Every state variable of a run is an array whose last axis is the lane (the run), so each
+# operation of a step is a loop over the lanes that LLVM turns into SIMD instructions: the
+# lanes do the same IEEE operations in the same order as run_design does for one run, so
+# every run gets the bits it gets alone (tests/physics/test_lockstep.py).  Only the nominal
+# model (no perturbation hooks) runs here; batch_kernel sends perturbed runs to run_design.
+
+#: lanes of a group are a multiple of LANE_ALIGN (8 doubles: one AVX-512 register) and at
+#: most GROUP_MAX (the state of 128 lanes, ~0.7 MB, stays in a core's L2 cache)
+LANE_ALIGN = 8
+GROUP_MAX = 128
+
+
+def group_lanes(n_runs: int, n_threads: int) -> int:
+    """Lanes per group of batch_kernel: at least one group per thread, a multiple of
+    LANE_ALIGN and at most GROUP_MAX, as few padding lanes as that allows."""
+    groups = max(min(n_threads, n_runs), -(-n_runs // GROUP_MAX), 1)
+    per = -(-n_runs // groups)
+    return max(-(-per // LANE_ALIGN), 1) * LANE_ALIGN
+
+
+@register_jitable
+def run_group(
+    i0, nl, L, ref1, ref2, refy, noise, noise_of, par, c0, b0, out_ch, out_th, out_gain,
+    summary, status, record,
+):
+    """Runs ``i0 .. i0 + nl - 1`` (``nl <= L``) of the batch in lock-step, lane l = run i0 + l.
+
+    The model and the order of every operation are run_design's with ``pp[PP_ON] == 0``;
+    lanes past ``nl`` repeat the last run and are never written.  A run that diverges stops
+    being written (its lane keeps computing); the group stops when all its runs have.
+    The summaries and divergence checks run over the lanes; only the writes into
+    ``theta_hat`` and the recorded channels go run by run.
+    """
+    n_steps = ref1.shape[1]
+    dt = par[P_DT]
+    frbf = par[P_FRBF] > 0.5
+    lam, sout, fmax = par[P_LAM], par[P_SOUT], par[P_FMAX]
+    eta, mom, bmin = par[P_ETA], par[P_MOM], par[P_BMIN]
+    coef = np.empty((4, 3))
+    for a in range(4):
+        coef[a, 0], coef[a, 1], coef[a, 2] = zoh_coefficients(par[P_K + a], dt)
+    row = np.empty(L, dtype=np.int64)
+    src = np.empty(L, dtype=np.int64)
+    for l in range(L):
+        row[l] = i0 + min(l, nl - 1)
+        src[l] = noise_of[row[l]]
+    pos = np.zeros((4, L))
+    vel = np.zeros((4, L))
+    meas = np.zeros((4, L))
+    meas_prev = np.zeros((4, L))
+    pos_n = np.zeros((4, L))
+    u = np.zeros((4, L))
+    e = np.zeros((4, L))
+    e1 = np.zeros((4, L))
+    e2 = np.zeros((4, L))
+    dfilt = np.zeros((4, L))
+    gains = np.empty((N_GAIN, L))
+    for a in range(2):
+        for m in range(3):
+            for l in range(L):
+                gains[3 * a + m, l] = par[P_XGAIN + m]
+    c = np.empty((2, 2, N_MF, L))
+    b = np.empty((2, 2, N_MF, L))
+    for t in range(2):
+        for k in range(2):
+            for j in range(N_MF):
+                for l in range(L):
+                    c[t, k, j, l] = c0[j]
+                    b[t, k, j, l] = b0
+    w = np.zeros((2, 3, N_RULE, L))
+    dw = np.zeros((2, 3, N_RULE, L))
+    dc = np.zeros((2, 2, N_MF, L))
+    db = np.zeros((2, 2, N_MF, L))
+    f2 = np.empty((2, N_MF, L))
+    f3 = np.empty((N_RULE, L))
+    f4 = np.empty((3, L))
+    q = np.empty((N_RULE, L))
+    g = np.empty((3, L))
+    msum = np.empty((2, N_MF, L))
+    x = np.empty((2, L))
+    theta = np.zeros((N_THETA, L))
+    P = np.zeros((N_THETA, N_THETA, L))
+    for k in range(N_THETA):
+        for l in range(L):
+            P[k, k, l] = par[P_P0] * par[P_MASK + k]
+    psi = np.empty((N_THETA, L))
+    ppsi = np.empty((N_THETA, L))
+    den = np.empty(L)
+    err = np.empty(L)
+    acc = np.empty((4, L))
+    fb = np.empty((4, L))
+    nz = np.empty((14, L))
+    ref = np.zeros((4, L))
+    psi_scale = np.array([par[P_SX], par[P_SX], par[P_SY], par[P_SY], 1.0])
+    # one run's values for _store_channels (scalar layout)
+    pos_1 = np.empty(4)
+    meas_1 = np.empty(4)
+    acc_1 = np.empty(4)
+    u_1 = np.empty(4)
+    gains_1 = np.empty(N_GAIN)
+    code = np.zeros(L, dtype=np.int64)
+    last = np.full(L, n_steps - 1, dtype=np.int64)
+    live = np.zeros(L, dtype=np.bool_)  # the run is still written (not diverged, not padding)
+    live[:nl] = True
+    n_alive = nl
+    cd = np.zeros(L, dtype=np.int64)  # this step's non-finite code, and the bound's
+    out = np.zeros(L, dtype=np.int64)
+    th = np.empty((N_THETA, L))  # this step's estimates in physical units
+    sm = np.zeros((N_SUM, L))  # the summaries (_record's columns), from the batch's
+    for l in range(nl):
+        for k in range(N_SUM):
+            sm[k, l] = summary[row[l], k]
+    moves_y = refy.shape[0] == ref1.shape[0] and refy.shape[2] == n_steps  # run_design's
+    for n in range(n_steps):
+        for l in range(L):
+            ref[0, l] = ref1[row[l], n]
+            ref[1, l] = ref2[row[l], n]
+        if moves_y:
+            for l in range(L):
+                ref[2, l] = refy[row[l], 0, n]
+                ref[3, l] = refy[row[l], 1, n]
+        for ch in range(14):
+            for l in range(L):
+                nz[ch, l] = noise[src[l], ch, n]
         for a in range(4):
-            out_ch[a, i, n] = pos_n[a]
-            out_ch[4 + a, i, n] = meas[a]
-            out_ch[8 + a, i, n] = acc[a]
-            out_ch[12 + a, i, n] = u[a]
-        for k in range(N_GAIN):
-            out_gain[k, i, n] = gains[k]
+            for l in range(L):
+                meas_prev[a, l] = meas[a, l]
+                meas[a, l] = pos[a, l] + nz[a, l]
+                e[a, l] = ref[a, l] - meas[a, l]
+        for a in range(4):
+            if a < 2 and frbf:
+                _frbf_pid_lanes(
+                    L, e[a], e1[a], e2[a], u[a], meas[a], meas_prev[a], c[a], b[a], w[a],
+                    dc[a], db[a], dw[a], f2, f3, f4, q, g, msum, x, gains, 3 * a, par, dt,
+                    eta, mom, bmin,
+                )
+            elif a < 2:
+                kp, ki, kd = par[P_XGAIN], par[P_XGAIN + 1], par[P_XGAIN + 2]
+                for l in range(L):
+                    u[a, l] = pid_increment(e[a, l], e1[a, l], e2[a, l], u[a, l], kp, ki, kd,
+                                            fmax)
+            elif par[P_YFILT] > 0.0:
+                kp, ki, kd, pole = par[P_YGAIN], par[P_YGAIN + 1], par[P_YGAIN + 2], par[P_YFILT]
+                for l in range(L):
+                    u[a, l], dfilt[a, l] = filtered_pid_increment(
+                        e[a, l], e1[a, l], u[a, l], dfilt[a, l], kp, ki, kd, pole, fmax)
+            else:
+                kp, ki, kd = par[P_YGAIN], par[P_YGAIN + 1], par[P_YGAIN + 2]
+                for l in range(L):
+                    u[a, l] = pid_increment(e[a, l], e1[a, l], e2[a, l], u[a, l], kp, ki, kd,
+                                            fmax)
+            for l in range(L):
+                e2[a, l] = e1[a, l]
+                e1[a, l] = e[a, l]
+        for l in range(L):
+            fbx = par[P_FB] + nz[12, l]
+            fby = par[P_FB + 1] + nz[13, l]
+            fb[0, l] = par[P_WSA] * fbx + par[P_WSA + 1] * fby
+            fb[2, l] = par[P_WSA + 2] * fbx + par[P_WSA + 3] * fby
+            fb[1, l] = par[P_WSB] * fbx + par[P_WSB + 1] * fby
+            fb[3, l] = par[P_WSB + 2] * fbx + par[P_WSB + 3] * fby
+            err[l] = 0.0  # y_reg of run_design
+        for a in range(4):
+            ka, kc, fd, scale = par[P_K + a], par[P_KC + a], par[P_FD + a], psi_scale[a]
+            c0a, c1a, c2a = coef[a, 0], coef[a, 1], coef[a, 2]
+            for l in range(L):
+                pos_n[a, l] = pos[a, l]
+                applied = u[a, l] + nz[8 + a, l] + fd - fb[a, l]
+                acc[a, l] = ka * pos[a, l] + applied + nz[4 + a, l]  # r'' + N_acc
+                err[l] += kc * (acc[a, l] - u[a, l])  # Eqs. 10-15
+                psi[a, l] = kc * meas[a, l] / scale
+                p, v = pos[a, l], vel[a, l]
+                pos[a, l] = c0a * p + c1a * v + c2a * applied
+                vel[a, l] = ka * c1a * p + c0a * v + c1a * applied
+        for l in range(L):
+            psi[4, l] = 1.0
+            err[l] = err[l] / sout
+        _rls_lanes(L, theta, P, psi, err, lam, ppsi, den)
+        # the summaries of _record (same columns, same comparisons), over the lanes still
+        # written; then the divergence codes of run_design in the same precedence
+        steady = n >= par[P_STEADY]
+        for a in range(2):
+            for l in range(L):
+                v = abs(ref[a, l] - pos_n[a, l])
+                if live[l] and v > sm[a, l]:
+                    sm[a, l] = v
+                if steady and live[l] and v > sm[2 + a, l]:
+                    sm[2 + a, l] = v
+        for a in range(4):
+            for l in range(L):
+                v = abs(pos_n[a, l])
+                if live[l] and v > sm[SUM_XMAX + a, l]:
+                    sm[SUM_XMAX + a, l] = v
+                v = abs(u[a, l])
+                if live[l] and v > sm[SUM_UMAX + a, l]:
+                    sm[SUM_UMAX + a, l] = v
+        for l in range(L):
+            cd[l] = OK
+            out[l] = OK
+        for a in range(4):
+            for l in range(L):
+                if not math.isfinite(u[a, l]):
+                    cd[l] = BAD_FORCE
+        for k in range(N_THETA):
+            if par[P_MASK + k] > 0.5:
+                for l in range(L):
+                    th[k, l] = theta[k, l] * sout / psi_scale[k]
+                    if not math.isfinite(th[k, l]):
+                        cd[l] = BAD_ESTIMATE
+            else:
+                for l in range(L):
+                    th[k, l] = math.nan  # not identified (SimulationConfig.rls_columns)
+        for a in range(3, -1, -1):  # the first axis out of the bound names the code
+            for l in range(L):
+                if not (abs(pos[a, l]) <= par[P_BOUND]):  # also catches NaN
+                    out[l] = OUT_X1 + a
+        # per run (scalar): the estimates into theta_hat, the records, a divergence
+        for l in range(nl):
+            if not live[l]:
+                continue
+            i = row[l]
+            for k in range(N_THETA):
+                out_th[i, n, k] = th[k, l]
+            if record:
+                for a in range(4):
+                    pos_1[a] = pos_n[a, l]
+                    meas_1[a] = meas[a, l]
+                    acc_1[a] = acc[a, l]
+                    u_1[a] = u[a, l]
+                for k in range(N_GAIN):
+                    gains_1[k] = gains[k, l]
+                _store_channels(i, n, pos_1, meas_1, acc_1, u_1, gains_1, out_ch, out_gain)
+            c_l = cd[l] if cd[l] != OK else out[l]
+            if c_l != OK:
+                code[l] = c_l
+                last[l] = n
+                live[l] = False
+                n_alive -= 1
+        if n_alive == 0:
+            break
+    for l in range(nl):
+        for k in range(N_SUM):
+            summary[row[l], k] = sm[k, l]
+        end_run(row[l], code[l], last[l], par, out_th, out_ch, out_gain, status, record)
 
 
-@nb.njit(parallel=True, cache=True)
+@register_jitable
+def _frbf_pid_lanes(
+    L, e, e1, e2, u, y, y_prev, c, b, w, dc, db, dw, f2, f3, f4, q, g, msum, x, gains, at,
+    par, dt, eta, mom, bmin,
+):
+    """_frbf_pid_axis over the lanes: the same operations in the same order per lane.
+
+    ``e, e1, e2, u, y, y_prev`` (L,); ``c, b, dc, db`` (2, N_MF, L); ``w, dw`` (3, N_RULE,
+    L); work arrays with the lane last.  Writes ``u`` and ``gains[at:at + 3]``.
+    """
+    for l in range(L):
+        x[0, l], x[1, l] = frbf_inputs(e[l], e1[l], par, dt)
+    # Eq. 23: the exponent first, then libm's exp in a loop of its own (a call per lane)
+    for i in range(2):
+        for j in range(N_MF):
+            for l in range(L):
+                d = x[i, l] - c[i, j, l]
+                f2[i, j, l] = -d * d / (b[i, j, l] * b[i, j, l])
+            for l in range(L):
+                f2[i, j, l] = math.exp(f2[i, j, l])
+    for m in range(3):
+        for l in range(L):
+            f4[m, l] = 0.0
+    # Eqs. 24-25 in one pass over the rules (each of the three sums in the order r = 0..48)
+    for j1 in range(N_MF):
+        for j2 in range(N_MF):
+            r = j1 * N_MF + j2
+            for l in range(L):
+                f = f2[0, j1, l] * f2[1, j2, l]
+                f3[r, l] = f
+                f4[0, l] += w[0, r, l] * f
+                f4[1, l] += w[1, r, l] * f
+                f4[2, l] += w[2, r, l] * f
+    for m in range(3):
+        for l in range(L):
+            gains[at + m, l] = frbf_gain(m, f4[m, l], par)
+    fmax = par[P_FMAX]
+    for l in range(L):
+        un = pid_increment(e[l], e1[l], e2[l], u[l], gains[at, l], gains[at + 1, l],
+                           gains[at + 2, l], fmax)
+        g[0, l], g[1, l], g[2, l] = frbf_gradient(
+            e[l], e1[l], e2[l], un, u[l], y[l] - y_prev[l], x[0, l], f4[0, l], f4[1, l],
+            f4[2, l], par)
+        u[l] = un
+    # Eqs. 26-27 in one pass over the rules (frbf_learn's operations and sums' orders per
+    # lane): dE/df3 with the weights before the update, the weights' steps, and the sums
+    # per membership (rule j1 7 + j2 adds to membership j1 of x1 and j2 of x2, in the
+    # order of the other index)
+    for i in range(2):
+        for j in range(N_MF):
+            for l in range(L):
+                msum[i, j, l] = 0.0
+    for m in range(3):
+        for l in range(L):
+            q[m, l] = -eta * g[m, l]  # q's first rows: the factors -eta dE/df4_m
+    for j1 in range(N_MF):
+        for j2 in range(N_MF):
+            r = j1 * N_MF + j2
+            for l in range(L):
+                f = f3[r, l]
+                s = (g[0, l] * w[0, r, l] + g[1, l] * w[1, r, l] + g[2, l] * w[2, r, l]) * f
+                msum[0, j1, l] += s
+                msum[1, j2, l] += s
+                step = q[0, l] * f + mom * dw[0, r, l]
+                w[0, r, l] += step
+                dw[0, r, l] = step
+                step = q[1, l] * f + mom * dw[1, r, l]
+                w[1, r, l] += step
+                dw[1, r, l] = step
+                step = q[2, l] * f + mom * dw[2, r, l]
+                w[2, r, l] += step
+                dw[2, r, l] = step
+    for i in range(2):
+        for j in range(N_MF):
+            for l in range(L):
+                c[i, j, l], dc[i, j, l], b[i, j, l], db[i, j, l] = membership_step(
+                    x[i, l], msum[i, j, l], c[i, j, l], b[i, j, l], dc[i, j, l],
+                    db[i, j, l], eta, mom, bmin)
+
+
+@register_jitable
+def _rls_lanes(L, theta, P, psi, y, lam, ppsi, den):
+    """rls_update over the lanes (Eq. 16; the same operations in the same order per lane).
+
+    ``theta, psi, ppsi`` (p, L), ``P`` (p, p, L), ``y, den`` (L,); ``y`` is overwritten
+    with the prediction error.
+    """
+    n = theta.shape[0]
+    for l in range(L):
+        den[l] = lam
+    for i in range(n):
+        for l in range(L):
+            ppsi[i, l] = 0.0
+        for j in range(n):
+            for l in range(L):
+                ppsi[i, l] += P[i, j, l] * psi[j, l]
+        for l in range(L):
+            den[l] += psi[i, l] * ppsi[i, l]
+            y[l] -= psi[i, l] * theta[i, l]
+    for i in range(n):
+        for l in range(L):
+            theta[i, l] += ppsi[i, l] / den[l] * y[l]
+    for i in range(n):
+        for j in range(n):
+            for l in range(L):
+                P[i, j, l] = (P[i, j, l] - ppsi[i, l] * ppsi[j, l] / den[l]) / lam
+
+
+@nb.njit(parallel=True, cache=True, error_model="numpy")
 def batch_kernel(
     ref1, ref2, refy, noise, noise_of, par, c0, b0, out_ch, out_th, out_gain, summary,
-    status, record, pp, ps,
+    status, record, pp, ps, lanes,
 ):
-    """All designs of a batch in parallel (one design per thread iteration).
+    """All runs of a batch, in parallel over groups of ``lanes`` runs in lock-step (run_group).
 
-    ``noise`` (S, 14, N) holds S noise realisations and design ``i`` runs with
+    ``noise`` (S, 14, N) holds S noise realisations and run ``i`` runs with
     ``noise[noise_of[i]]``: designs x seeds in one launch, each row bit-identical to a
-    run of that design alone with that seed (run_design sees the same 2-D array).
+    run of that design alone with that seed.  With perturbations (``pp[PP_ON]``) every
+    run goes through run_design, one run per thread iteration.
+    ``error_model="numpy"``: a division by zero gives inf/NaN (caught as a divergence)
+    instead of raising, so the lane loops have no exits and vectorise.
     """
-    for i in nb.prange(ref1.shape[0]):
-        run_design(
-            i, ref1, ref2, refy, noise[noise_of[i]], par, c0, b0, out_ch, out_th, out_gain,
-            summary, status, record, pp, ps,
+    n_runs = ref1.shape[0]
+    if pp[PP_ON] > 0.5:
+        for i in nb.prange(n_runs):
+            run_design(
+                i, ref1, ref2, refy, noise[noise_of[i]], par, c0, b0, out_ch, out_th,
+                out_gain, summary, status, record, pp, ps,
+            )
+        return
+    groups = -(-n_runs // lanes)
+    for gi in nb.prange(groups):
+        i0 = gi * lanes
+        run_group(
+            i0, min(lanes, n_runs - i0), lanes, ref1, ref2, refy, noise, noise_of, par, c0,
+            b0, out_ch, out_th, out_gain, summary, status, record,
         )
 
 

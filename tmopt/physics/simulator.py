@@ -11,6 +11,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Literal
 
+import numba
 import numpy as np
 
 from tmopt.physics import _closed_loop as cl
@@ -497,6 +498,8 @@ def prepare(
         "record": record,
         "pp": pp,
         "ps": ps,
+        # runs per lock-step group (the kernel's threads share the groups)
+        "lanes": cl.group_lanes(b, numba.get_num_threads()),
         "perturbations": perturbations,
     }
 
@@ -544,8 +547,9 @@ def _finish(io: dict, config: SimulationConfig, seed) -> SimulationResult:
     )
 
 
-_KERNEL_ARGS = ("ref1", "ref2", "refy", "noise", "noise_of", "par", "c0", "b0", "out_ch", "out_th",
-                "out_gain", "summary", "status", "record", "pp", "ps")  # fmt: skip
+_KERNEL_ARGS = ("ref1", "ref2", "refy", "noise", "noise_of", "par", "c0", "b0", "out_ch",
+                "out_th", "out_gain", "summary", "status", "record", "pp", "ps",
+                "lanes")  # fmt: skip
 
 
 def simulate(
@@ -591,7 +595,7 @@ def simulate_reference(
     """
     config = SimulationConfig() if config is None else config
     io = prepare(ref1, ref2, config, seed, perturbations, ref_y)
-    args = [io[k] for k in _KERNEL_ARGS]
+    args = [io[k] for k in _KERNEL_ARGS if k != "lanes"]  # run_design: one run, no groups
     noise, noise_of = args[3], args[4]
     for i in range(io["ref1"].shape[0]):
         cl.run_design(i, *args[:3], noise[noise_of[i]], *args[5:])

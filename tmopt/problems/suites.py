@@ -1,6 +1,7 @@
-"""Constrained benchmark suites with offline Pareto fronts: MW, C-DTLZ and DAS-CMOP.
+"""Constrained benchmark suites with offline Pareto fronts: MW, C-DTLZ, DAS-CMOP, LIR-CMOP.
 
-The problems themselves are pymoo's implementations (``pymoo.problems.get_problem``);
+The problems themselves are pymoo's implementations (``pymoo.problems.get_problem``),
+except LIR-CMOP, which pymoo lacks (:mod:`tmopt.problems.lircmop`);
 what this module adds is
 
 * true Pareto fronts computed offline (:mod:`tmopt.problems.fronts`): pymoo downloads
@@ -21,6 +22,7 @@ from pymoo.problems import get_problem
 from tmopt.problems.base import ConstraintGroup
 from tmopt.problems.fronts import dascmop as _dascmop
 from tmopt.problems.fronts import front_sample, split_name
+from tmopt.problems.lircmop import LIRCMOP
 from tmopt.problems.pymoo_problem import PymooProblem
 
 #: Problems whose front is offline here, with their default number of objectives.
@@ -28,6 +30,7 @@ SUITE_PROBLEMS: dict[str, int] = {
     **{f"mw{k}": (3 if k in (4, 8, 14) else 2) for k in range(1, 15)},
     **{name: 3 for name in ("c1dtlz1", "c1dtlz3", "c2dtlz2", "c3dtlz1", "c3dtlz4")},
     **{f"dascmop{k}": (2 if k <= 6 else 3) for k in range(1, 10)},
+    **{f"lircmop{k}": (3 if k >= 13 else 2) for k in range(1, 15)},
 }
 #: Problems whose number of objectives can be chosen.
 SCALABLE = {"mw4", "mw8", "mw14", "c1dtlz1", "c1dtlz3", "c2dtlz2", "c3dtlz1", "c3dtlz4"}
@@ -39,12 +42,12 @@ def default_n_var(name: str, n_obj: int) -> int:
 
     MW: D = 15 (Ma & Wang 2019). C-DTLZ: n = M + k - 1 with k = 5 for the DTLZ1-based and
     k = 10 for the others (Jain & Deb 2014, after Deb et al. 2005). DAS-CMOP: 30
-    (Fan et al. 2020).
+    (Fan et al. 2020). LIR-CMOP: 30 (Fan et al. 2019).
     """
     family, which = split_name(name)
     if family == "mw":
         return max(15, n_obj + 1)
-    if family == "dascmop":
+    if family in ("dascmop", "lircmop"):
         return 30
     return n_obj + (4 if str(which).endswith("dtlz1") else 9)
 
@@ -69,7 +72,9 @@ def _resolve_n_obj(name: str, n_obj) -> int:
 
 
 def _build_inner(name: str, n_var: int, n_obj: int, difficulty):
-    family, _ = split_name(name)
+    family, which = split_name(name)
+    if family == "lircmop":
+        return LIRCMOP(which, n_var)
     if family == "dascmop":
         inner = get_problem(name, difficulty)
         # pymoo fixes n_var = 30 in the constructor; its distance functions read
@@ -93,12 +98,13 @@ def grouped_constraints(n_constr: int, grouping: str | None) -> list[ConstraintG
 
 
 class PymooBenchmark(PymooProblem):
-    """A constrained suite problem (``mw1``..``mw14``, C-DTLZ, ``dascmop1``..``dascmop9``).
+    """A constrained suite problem (``mw1``..``mw14``, C-DTLZ, ``dascmop1``..``dascmop9``,
+    ``lircmop1``..``lircmop14``).
 
     Args:
-        name: Problem name, e.g. ``"mw3"``, ``"c2dtlz2"``, ``"dascmop7"``.
+        name: Problem name, e.g. ``"mw3"``, ``"c2dtlz2"``, ``"dascmop7"``, ``"lircmop5"``.
         n_var: Number of variables (None: the published default, see
-            :func:`default_n_var`); at least ``n_obj + 1``.
+            :func:`default_n_var`); at least ``n_obj + 1`` (LIR-CMOP1-12: 5).
         n_obj: Number of objectives (None: 2 or 3 as published); only MW4, MW8, MW14 and
             the C-DTLZ problems accept other values (>= 2).
         difficulty: DAS-CMOP only: 1..16 (Fan et al. 2020, Table 2) or a triplet

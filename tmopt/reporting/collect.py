@@ -37,7 +37,7 @@ import sys
 from pathlib import Path
 
 from tmopt.files import atomic_write_text
-from tmopt.reporting import anytime, figures
+from tmopt.reporting import across, anytime, figures
 from tmopt.reporting.paper import algorithm_order, display_name
 from tmopt.reporting.runs import (
     COMPLETE,
@@ -80,7 +80,7 @@ TEST_NOTE = ("p: two-sided Wilcoxon rank-sum test (scipy.stats.mannwhitneyu, exa
 
 def collect(sweep_dir: Path | list[Path], out: Path | None = None,
             reference: str = DEFAULT_REFERENCE, fig10_run: Path | None = None,
-            fig10: bool = True, at: list[int] | None = None,
+            fig10: bool = True, at: list[int] | None = None, rescore: bool = False,
             at_seeds: int | None = None) -> list[Path]:
     """Write every table and figure of the sweep(s) in ``sweep_dir``; return the files written.
 
@@ -89,6 +89,8 @@ def collect(sweep_dir: Path | list[Path], out: Path | None = None,
 
     Several sweep folders (a list) are collected as one: e.g. the same algorithms at two
     budgets from two sweeps, so that they share one table and one reference.
+    ``rescore``: the suite runs' IGD, IGD+ and HV are recomputed from their archives
+    against today's fronts (runs made before a front was corrected).
     """
     dirs = [Path(d) for d in (sweep_dir if isinstance(sweep_dir, list) else [sweep_dir])]
     if out is None and len(dirs) > 1:
@@ -97,6 +99,8 @@ def collect(sweep_dir: Path | list[Path], out: Path | None = None,
     runs, duplicates = deduplicate(_discover(dirs))
     if not runs:
         raise FileNotFoundError(f"no run folders under {', '.join(map(str, dirs))}")
+    if rescore:
+        runs = [anytime.rescored(r) if not r.is_stiffness else r for r in runs]
     out.mkdir(parents=True, exist_ok=True)
     notes = [_write_runs(runs, out), _write_status(runs, duplicates, out)]
     stiffness = [r for r in runs if r.is_stiffness]
@@ -106,6 +110,7 @@ def collect(sweep_dir: Path | list[Path], out: Path | None = None,
                                   fig10)
     if suites:
         notes.append(_write_benchmarks(suites, out, reference))
+        notes.append(_write_across(suites, out, reference))
     if at:
         notes.append(_write_anytime(runs, out, reference, at, at_seeds))
     label = ", ".join(map(str, dirs))
@@ -305,6 +310,52 @@ def _write_benchmarks(runs: list[RunRecord], out: Path, reference: str) -> str:
     return f"`benchmarks.md`, `benchmarks_igd.png`, `benchmarks_hv.png`: {len(rows)} settings."
 
 
+# ---- across problems ----------------------------------------------------------------------
+def _write_across(runs: list[RunRecord], out: Path, reference: str) -> str:
+    """``across_problems.md`` (Friedman + Holm per metric) and ``profiles.png``
+    (performance profiles): every setting but the algorithm's is a problem (block)."""
+    keys = setting_keys(runs)
+    # an algorithm.* key splits the treatments only where it varies within one algorithm
+    # (KTS has no "gap": that alone must not make MGSAEA-IPC's gap a setting)
+    own = [k for k in keys if k.startswith("algorithm.") and any(
+        len({r.value(k) for r in runs if r.value("algorithm") == a}) > 1
+        for a in {r.value("algorithm") for r in runs})]
+    treat = ["algorithm", *own]
+    blocks_keys = [k for k in _with(keys, ("problem",))
+                   if k != "algorithm" and not k.startswith("algorithm.")]
+    if len({r.value("algorithm") for r in runs}) < 2 and not own:
+        return "`across_problems.md` not written: one algorithm only."
+    lines = ["## Across problems: Friedman test, Holm's post-hoc, performance profiles", "",
+             "Each problem (every setting but the algorithm's: " + ", ".join(blocks_keys)
+             + ") gives one number per algorithm, the median over its complete runs (IGD: "
+             "a run without a feasible design counts as infinite; HV: as 0); problems "
+             "without runs of every algorithm are left out. Ranks: 1 = best on a "
+             "problem, ties shared. Friedman's chi2 and Iman-Davenport's F test whether "
+             "the algorithms differ at all; each algorithm is then compared with the "
+             f"reference ({reference}) by z = (R_i - R_ref) / sqrt(k (k+1) / (6 N)), "
+             "two-sided, Holm-adjusted over the k-1 comparisons (Demšar, JMLR 7, 2006); "
+             "+ / - / = : better / worse ranked than the reference, significant at 0.05 "
+             "after Holm, or not. profiles.png: Dolan-Moré performance profiles of the "
+             "same medians (IGD as the cost, and 1/HV).", ""]
+    panels = []
+    for metric in across.ACROSS_METRICS:
+        blocks, names, table = across.block_table(runs, metric, blocks_keys, treat)
+        header, body, text = across.friedman_rows(blocks, names, table, metric,
+                                                  reference if treat == ["algorithm"]
+                                                  else None)
+        lines += [text, ""] + ([_md(header, body), ""] if body else [])
+        if metric != "igd_plus" and len(blocks) and len(names) > 1:
+            lower, _ = across.ACROSS_METRICS[metric]
+            ratios, unsolved = across.performance_ratios(table, lower)
+            cost = "IGD" if lower else "1 / HV"
+            panels.append((f"{metric.upper()} (cost: {cost})", names, ratios, unsolved))
+    if panels:
+        figures.performance_profiles(panels, out / "profiles.png")
+    atomic_write_text(out / "across_problems.md", "\n".join(lines) + "\n")
+    return ("`across_problems.md`" + (", `profiles.png`" if panels else "")
+            + ": Friedman + Holm and performance profiles across problems.")
+
+
 # ---- anytime ----------------------------------------------------------------------------
 def _write_anytime(runs: list[RunRecord], out: Path, reference: str, at: list[int],
                    at_seeds: int | None = None) -> str:
@@ -350,8 +401,31 @@ def _write_anytime_kind(runs: list[RunRecord], out: Path, reference: str, at: li
     log_x = min(lengths) > 0 and max(lengths) > 5 * min(lengths)  # e.g. 697 beside 10 000
     figures.anytime_curves(rows, key, out / f"{stem}.png", log_x)
     where = "stiffness problem" if stiffness else "benchmark suites"
-    return (f"`{stem}.md`, `{stem}.png`: {where}, after {', '.join(map(str, at))} "
+    note = (f"`{stem}.md`, `{stem}.png`: {where}, after {', '.join(map(str, at))} "
             f"evaluations ({len(runs)} runs).")
+    if stiffness:  # its headline is held-out M, re-simulated per K: evaluations only
+        return note
+    return note + _write_anytime_seconds(runs, out, reference, metrics, keys, key, stem)
+
+
+def _write_anytime_seconds(runs, out, reference, metrics, keys, key, stem) -> str:
+    """``{stem}_seconds.png/.csv`` (benchmark suites): the same against wall-clock seconds
+    (each run's evaluation_clock)."""
+    grid = anytime.seconds_grid(runs)
+    if not grid:
+        return ""
+    records = [rec for run in runs for rec in anytime.clock_records(run, grid)]
+    keys = [k if k != anytime.EVALS_KEY else anytime.SECONDS_KEY for k in keys]
+    rows = summarise(group_runs(records, keys), metrics, reference)
+    for row in rows:  # the figure's x axis is the pseudo-setting "evaluations"
+        row["setting"] = {(anytime.EVALS_KEY if k == anytime.SECONDS_KEY else k): v
+                          for k, v in row["setting"].items()}
+    figures.anytime_curves(rows, key, out / f"{stem}_seconds.png", log_x=True,
+                           xlabel="wall-clock seconds (surrogate, search and evaluation)")
+    atomic_write_text(out / f"{stem}_seconds.csv", to_csv(csv_rows(rows, metrics, [
+        anytime.EVALS_KEY if k == anytime.SECONDS_KEY else k for k in keys])))
+    return (f" `{stem}_seconds.png/.csv`: the same against wall-clock time (runs with an "
+            f"evaluation clock; a line ends where its runs ended).")
 
 
 def _setting_order(row: dict) -> tuple:
@@ -417,6 +491,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="run folder whose chosen design Fig. 10 shows (default: the "
                          "reference algorithm's median run by M)")
     ap.add_argument("--no-fig10", action="store_true", help="skip Fig. 10's re-simulation")
+    ap.add_argument("--rescore", action="store_true",
+                    help="recompute the suite runs' IGD, IGD+ and HV from their archives "
+                         "against today's fronts (metrics.json stays as written)")
     ap.add_argument("--at", default=None, metavar="K[,K...]",
                     help="also write anytime.md/.png: every setting after its runs' first K "
                          "real evaluations (e.g. --at 300,400,697)")
@@ -434,7 +511,8 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.WARNING, format="%(message)s")
     try:
         files = collect(args.sweep_dir, args.out, args.reference_algorithm, args.fig10_run,
-                        fig10=not args.no_fig10, at=at, at_seeds=args.at_seeds)
+                        fig10=not args.no_fig10, at=at, at_seeds=args.at_seeds,
+                        rescore=args.rescore)
     except FileNotFoundError as exc:
         print(f"tmopt.collect: error: {exc}", file=sys.stderr)
         return 2

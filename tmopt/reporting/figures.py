@@ -18,6 +18,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from tmopt.reporting.paper import display_name  # noqa: E402
 from tmopt.reporting.runs import RunRecord  # noqa: E402
 from tmopt.reporting.stats import finite  # noqa: E402
 from tmopt.reporting.tables import label  # noqa: E402
@@ -319,17 +320,19 @@ def benchmark_boxes(rows: list[dict], key: str, title: str, path: Path) -> None:
 PANEL_KEYS = ("problem", "scheme", "problem.n_freq")
 
 
-def anytime_curves(rows: list[dict], key: str, path: Path, log_x: bool = False) -> None:
+def anytime_curves(rows: list[dict], key: str, path: Path, log_x: bool = False,
+                   xlabel: str = "real evaluations") -> None:
     """Mean ± std over seeds of ``key`` against evaluations, one line per setting.
 
     ``rows`` are summary rows whose settings include ``evaluations``; a line is solid
     where every run of the setting had reached that count and dotted where only some had.
-    ``log_x``: logarithmic evaluation axis (for runs of very different lengths).
+    ``log_x``: logarithmic evaluation axis (for runs of very different lengths);
+    ``xlabel``: what ``evaluations`` holds (e.g. wall-clock seconds).
     """
     panels: dict[tuple, dict[str, list[dict]]] = {}
     for row in rows:
         s = dict(row["setting"])
-        k = int(s.pop("evaluations"))
+        k = float(s.pop("evaluations"))
         panel = tuple((p, s.pop(p)) for p in PANEL_KEYS if p in s)
         panels.setdefault(panel, {}).setdefault(label(s), []).append({**row, "k": k})
     n = max(1, len(panels))
@@ -345,7 +348,7 @@ def anytime_curves(rows: list[dict], key: str, path: Path, log_x: bool = False) 
         for i, (name, pts) in enumerate(lines.items()):
             _anytime_line(ax, sorted(pts, key=lambda r: r["k"]), key, name, colours(i))
         ax.set_title(", ".join(f"{k}={v}" for k, v in panel) or f"{ylabel}, mean ± std")
-        ax.set_xlabel("real evaluations")
+        ax.set_xlabel(xlabel)
         ax.set_ylabel(ylabel)
         if log_x:
             ax.set_xscale("log")
@@ -374,9 +377,43 @@ def _anytime_line(ax, pts: list[dict], key: str, name: str, colour) -> None:
     mean = np.array([p[key][0] for p in pts])
     std = np.nan_to_num(np.array([p[key][1] for p in pts]))
     full = np.array([p["n_complete"] == p["n_runs"] for p in pts])
-    ax.plot(k[full], mean[full], color=colour, label=name)
+    if full.any():  # an empty line would still take a legend entry
+        ax.plot(k[full], mean[full], color=colour, label=name)
     ax.fill_between(k, mean - std, mean + std, color=colour, alpha=0.1, lw=0)
     if not full.all():  # some runs stop short of here (unfinished or smaller budget)
         start = max(0, int(np.argmin(full)) - 1)
         ax.plot(k[start:], mean[start:], ":", color=colour,
                 label=None if full.any() else name)
+
+
+# ---- across problems ----------------------------------------------------------------------
+def performance_profiles(panels: list[tuple[str, list[str], np.ndarray, int]],
+                         path: Path) -> None:
+    """Dolan-Moré performance profiles, one panel per metric.
+
+    ``panels``: (title, algorithm names, ratios (problems, algorithms) from
+    :func:`tmopt.reporting.across.performance_ratios`, problems no algorithm solved).
+    """
+    from tmopt.reporting.across import profile
+
+    fig, axes = plt.subplots(1, len(panels), figsize=(6 * len(panels), 4.2), squeeze=False)
+    for ax, (title, names, ratios, unsolved) in zip(axes.flat, panels):
+        finite_r = ratios[np.isfinite(ratios)]
+        top = max(2.0, 1.2 * float(finite_r.max())) if finite_r.size else 2.0
+        taus = np.geomspace(1.0, top, 400)
+        rho = profile(ratios, taus)
+        styles = ["-", "--", "-.", ":"]
+        for i, name in enumerate(names):
+            ax.step(taus, rho[:, i], where="post", label=display_name(name),
+                    linestyle=styles[i % len(styles)], lw=1.6)
+        ax.set_xscale("log", base=2)
+        ax.set_ylim(-0.02, 1.02)
+        ax.set_xlabel("tau (within a factor tau of the best on the problem)")
+        ax.set_ylabel("share of problems rho(tau)")
+        extra = f"; {unsolved} solved by none, left out" if unsolved else ""
+        ax.set_title(f"{title} ({len(ratios)} problems{extra})", fontsize=10)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="lower right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

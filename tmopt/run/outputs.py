@@ -89,8 +89,14 @@ def indicator_values(problem, F: np.ndarray, pf: np.ndarray | None) -> dict:
 
 def write_outputs(problem, algorithm, data: ArchiveData, outdir: Path | None, *, seed: int,
                   budget: int, wall_time: float, config_hash: str, resumed_from: int,
-                  plots: bool, extra_metrics=None) -> dict:
-    """Compute the final set, choice and metrics; write them (when ``outdir`` is set)."""
+                  plots: bool, extra_metrics=None, clock=None) -> dict:
+    """Compute the final set, choice and metrics; write them (when ``outdir`` is set).
+
+    ``clock``: ``[(evaluations, seconds), ...]`` after each generation of this process
+    (seconds since its loop started: surrogate, acquisition and evaluation time), kept as
+    ``evaluation_clock`` for anytime curves against wall-clock time
+    (:mod:`tmopt.reporting.anytime`); like ``wall_time_s`` it starts again on resume.
+    """
     pareto, best = final_choice(data)
     pf = reference_front(problem)
     best_f = best_so_far(data)
@@ -108,6 +114,8 @@ def write_outputs(problem, algorithm, data: ArchiveData, outdir: Path | None, *,
         "chosen": _design_dict(problem, data, best, feasible=bool(len(pareto))),
         **indicator_values(problem, data.F[pareto], pf),
         "wall_time_s": round(float(wall_time), 3),
+        "evaluation_clock": {"evaluations": [int(n) for n, _ in clock or ()],
+                             "seconds": [round(float(t), 3) for _, t in clock or ()]},
         "resumed_from": int(resumed_from),
         "config_hash": config_hash,
         "algorithm_summary": algorithm.summary(),

@@ -144,6 +144,7 @@ def _run_locked(problem, algorithm, budget, seed, outdir, config_hash, resume, p
                                 front=reference_front(problem) if progress else None,
                                 m_weights=getattr(problem, "m_weights", None))
     t0 = time.perf_counter()
+    clock: list[tuple[int, float]] = []  # (evaluations, seconds) per generation
     try:
         while evaluator.remaining > 0 and algorithm.has_next():
             X = algorithm.ask()
@@ -151,6 +152,7 @@ def _run_locked(problem, algorithm, budget, seed, outdir, config_hash, resume, p
                 break
             batch = _evaluate_or_explain(evaluator, X[: evaluator.remaining], outdir)
             algorithm.tell(batch)
+            clock.append((evaluator.n_evals, time.perf_counter() - t0))
             reporter.update(algorithm.n_gen, evaluator.archive.data, algorithm.info(),
                             replaying=evaluator.n_replayed_left > 0)
         evaluator.flush(rewrite=replay is not None and not has_checksums(replay))
@@ -160,7 +162,8 @@ def _run_locked(problem, algorithm, budget, seed, outdir, config_hash, resume, p
     data = evaluator.archive.data
     metrics = write_outputs(problem, algorithm, data, outdir, seed=seed, budget=budget,
                             wall_time=time.perf_counter() - t0, config_hash=config_hash,
-                            resumed_from=resumed_from, plots=plots, extra_metrics=extra_metrics)
+                            resumed_from=resumed_from, plots=plots, extra_metrics=extra_metrics,
+                            clock=clock)
     return RunResult(data, metrics, outdir, resumed_from=resumed_from)
 
 

@@ -11,13 +11,15 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 
-def change_rate(ideal_now: ArrayLike, ideal_before: ArrayLike, *, sigma: float) -> float:
+def change_rate(ideal_now: ArrayLike, ideal_before: ArrayLike, *, sigma: float,
+                absolute: bool = True) -> float:
     """Maximum relative change mc of the ideal point (seed paper Eq. 20).
 
     mc = max_i |z_i^iter - z_i^(iter-gap)| / max(|z_i^(iter-gap)|, sigma). The absolute
     value in the denominator follows the paper; PlatEMO's ``calc_maxchange`` takes
     ``max(z, delta)`` without it, so a negative ideal component makes the denominator
     ``delta`` and mc explode (the stage never switches). See docs/algorithms-mgsaea.md.
+    ``absolute=False`` reproduces PlatEMO's ``max(z, sigma)``.
     """
     now = np.asarray(ideal_now, dtype=float).reshape(-1)
     before = np.asarray(ideal_before, dtype=float).reshape(-1)
@@ -26,4 +28,5 @@ def change_rate(ideal_now: ArrayLike, ideal_before: ArrayLike, *, sigma: float) 
                          f"{now.shape} and {before.shape}")
     if not sigma > 0.0:
         raise ValueError(f"change_rate: sigma must be > 0, got {sigma!r}")
-    return float(np.max(np.abs(now - before) / np.maximum(np.abs(before), sigma)))
+    denom = np.maximum(np.abs(before) if absolute else before, sigma)
+    return float(np.max(np.abs(now - before) / denom))

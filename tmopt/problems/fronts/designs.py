@@ -145,3 +145,24 @@ def dascmop_designs(k: int, n_var: int, sample) -> np.ndarray:
         tau = (g / m)[:, None] * np.ones((1, m))
         dist = 0.5 + _invert(lambda z: z ** 2 + 1 - np.cos(20 * np.pi * z), tau, 0.05)
     return np.column_stack([P, dist])
+
+
+# ---- LIR-CMOP (tmopt.problems.lircmop) ---------------------------------------------------
+def lircmop_designs(k: int, n_var: int, sample) -> np.ndarray:
+    """Designs of LIR-CMOP``k`` with ``n_var`` variables for a front sample: every
+    distance variable of a sum moved off its centre by the same amount."""
+    from tmopt.problems.lircmop import centres
+
+    n = len(sample.F)
+    X = np.empty((n, n_var))
+    if k >= 13:  # x1, x2 on the sphere; 10 sum (x_j - 0.5)^2 = g over j >= 3
+        X[:, :2] = sample.pos
+        delta = np.sqrt(sample.g / (10 * (n_var - 2)))[:, None]
+        X[:, 2:] = 0.5 + delta * np.ones((1, n_var - 2))
+        return X
+    t, g1, g2 = sample.pos.T
+    X[:, 0] = t
+    c_odd, c_even = centres(k, t, n_var)
+    X[:, 2::2] = _away(c_odd, np.sqrt(g1 / c_odd.shape[1])[:, None], 0.0, 1.0)
+    X[:, 1::2] = _away(c_even, np.sqrt(g2 / c_even.shape[1])[:, None], 0.0, 1.0)
+    return X
