@@ -25,10 +25,10 @@ OUTPUTS = ("out_th", "summary", "status", "out_ch", "out_gain")
 
 
 @nb.njit(cache=True)
-def _one_by_one(ref1, ref2, noise, noise_of, par, c0, b0, out_ch, out_th, out_gain, summary,
-                status, record, pp, ps):
+def _one_by_one(ref1, ref2, refy, noise, noise_of, par, c0, b0, out_ch, out_th, out_gain,
+                summary, status, record, pp, ps):
     for i in range(ref1.shape[0]):
-        cl.run_design(i, ref1, ref2, noise[noise_of[i]], par, c0, b0, out_ch, out_th,
+        cl.run_design(i, ref1, ref2, refy, noise[noise_of[i]], par, c0, b0, out_ch, out_th,
                       out_gain, summary, status, record, pp, ps)
 
 
@@ -41,10 +41,10 @@ def _references(b: int, t: np.ndarray, seed: int, big: int = 0) -> list[np.ndarr
                    axis=1) for k in range(2)]
 
 
-def _both(cfg: SimulationConfig, refs, seeds, lanes: int | None = None):
+def _both(cfg: SimulationConfig, refs, seeds, lanes: int | None = None, ref_y=None):
     outs = []
     for kernel in ("lockstep", "scalar"):
-        io = S.prepare(*refs, cfg, seeds)
+        io = S.prepare(*refs, cfg, seeds, ref_y=ref_y)
         if lanes is not None:
             io["lanes"] = lanes
         args = [io[k] for k in S._KERNEL_ARGS]
@@ -94,6 +94,19 @@ def test_group_size_changes_no_bit(lanes):
     seeds = np.arange(9, dtype=np.int64) % 4
     new, old = _both(cfg, refs, seeds, lanes=lanes)
     _assert_same(new, old)
+
+
+def test_y_set_points_move_the_lanes_as_they_move_a_run_alone():
+    """Issue 22's y set points (``ref_y``) reach every lane of a group."""
+    cfg = replace(SimulationConfig(), duration=60.0, record="full")
+    t = sample_times(cfg.duration, cfg.sample_rate)
+    refs = _references(10, t, seed=4)
+    ref_y = [0.5 * r for r in _references(10, t, seed=5)]
+    seeds = np.arange(10, dtype=np.int64) % 3
+    new, old = _both(cfg, refs, seeds, lanes=8, ref_y=ref_y)
+    _assert_same(new, old)
+    still, _ = _both(cfg, refs, seeds, lanes=8)
+    assert not np.array_equal(new["out_ch"][4:8], still["out_ch"][4:8])  # y really moved
 
 
 def test_runs_whose_estimate_turns_non_finite_hold_the_sample_before():
