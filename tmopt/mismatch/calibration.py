@@ -18,14 +18,21 @@ see docs/mismatch.md, "Calibration").  They are constants here, not tuned per re
   effect would be absorbed into, and bias, that parameter), else *not excited*.  Example:
   a cubic stiffness under a single tone, ``x^3 = 3/4 A^2 x - 1/4 A^3 sin 3wt``: 90 %
   of it looks like linear stiffness.
+* ``SHAPE_ALPHA`` -- level of the shape check of a selected effect
+  (:meth:`tmopt.mismatch.effects.base.Effect.shape_check`: a drift's residual must not
+  need a curvature): one test per selected effect, not a search, so a plain level; its
+  false-misfit rate on true linear drifts in flight-like recordings is measured by
+  ``experiments/mismatch_shape_calibration.py`` (docs/mismatch.md 9.6).
 """
 
 from __future__ import annotations
 
-__all__ = ["FAMILY_ALPHA", "LOCATE_ALPHA", "AMBIGUOUS_DBIC", "ALIASED_R2", "LJUNG_BOX_LAGS"]
+__all__ = ["FAMILY_ALPHA", "LOCATE_ALPHA", "AMBIGUOUS_DBIC", "ALIASED_R2", "LJUNG_BOX_LAGS",
+           "SHAPE_ALPHA"]
 
 FAMILY_ALPHA: float = 0.01
 LOCATE_ALPHA: float = 0.01
 AMBIGUOUS_DBIC: float = 6.0
 ALIASED_R2: float = 0.5
 LJUNG_BOX_LAGS: int = 20
+SHAPE_ALPHA: float = 0.01

@@ -131,6 +131,8 @@ class Diagnosis:
     steps: list[list[Evaluation]] = field(default_factory=list)
     verdict: Verdict | None = None
     refused: str | None = None
+    #: Selected effects whose shape the residual contradicts (:func:`shape_misfits`).
+    misfits: list[dict] = field(default_factory=list)
 
     @property
     def effects(self) -> list[tuple[Evaluation, list[Evaluation]]]:
@@ -144,7 +146,8 @@ class Diagnosis:
 
     @property
     def unexplained(self) -> bool:
-        return self.refused is None and (self.locations_after.any or bool(self.features))
+        return self.refused is None and (self.locations_after.any or bool(self.features)
+                                         or bool(self.misfits))
 
     @property
     def mismatch_detected(self) -> bool | None:
@@ -674,6 +677,30 @@ def _deterministic_instead(data, basis, state: State, evals: list[Evaluation],
     return None
 
 
+def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
+                  alpha: float = cal.SHAPE_ALPHA) -> list[dict]:  # fmt: skip
+    """Selected catalogue effects whose shape the final residual contradicts: the
+    effect's :meth:`~tmopt.mismatch.effects.base.Effect.shape_check` columns, added to the
+    final model, are significant at ``alpha`` (GLR ~ chi^2, one test per effect; ``alpha``
+    = 1 lists every check, for calibration).  Each: ``{"key", "channel", "glr", "dof",
+    "p_value"}``."""
+    ctx = Context(data, basis, state.eq_fit.residual, state.eq_noise)
+    group = _Group(None, state.eq_cols, state.eq_fit, state.eq_noise.whiten)
+    out = []
+    for ev, _ in selected:
+        cand = ev.candidate
+        model = EFFECTS.get(cand.effect)
+        cols = model.shape_check(ctx, cand) if model is not None else []
+        if not cols or cand.group != "equation":
+            continue
+        lam = group.glr(cols)
+        p = float(stats.chi2.sf(lam, len(cols)))
+        if p < alpha:
+            out.append({"key": cand.key, "channel": cand.channel, "glr": lam,
+                        "dof": len(cols), "p_value": p})  # fmt: skip
+    return out
+
+
 def effect_parameters(state: State, cand: Candidate) -> dict[str, tuple[float, float]]:
     """A selected candidate's reported parameters ``{name: (value, sigma)}`` in ``state``
     (its fitted columns through :meth:`Candidate.physical`); searched parameters as given."""
@@ -766,6 +793,7 @@ def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
         locations_after=_locate_state(data, basis, state, settings.locate_alpha),
         not_identifiable=identifiability(data, basis, before, settings, n_tests),
         settings=settings, steps=steps, verdict=verdict,
+        misfits=shape_misfits(data, basis, state, selected),
     )  # fmt: skip
 
 

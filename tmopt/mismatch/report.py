@@ -66,13 +66,19 @@ def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
       residual for kinematic effects; :attr:`Diagnosis.locations_after`) -- the best
       catalogue effect left
       significant structure there, so it is at most part of the story (issue 26: a
-      confident wrong name is the worst outcome)."""
+      confident wrong name is the worst outcome);
+    * with ``dg``: a shape misfit (:attr:`Diagnosis.misfits`): the residual on its
+      channel needs what the effect's shape lacks (a drift that is not linear)."""
     out = [{"name": a.candidate.effect, "channel": a.candidate.channel, "delta_bic": a.dbic}
            for a in alts if a.candidate.effect != ev.candidate.effect]  # fmt: skip
     if dg is None:
         return out
     out += [{"name": f.candidate.effect, "channel": f.candidate.channel, "delta_bic": f.dbic}
             for f, _ in dg.features if f.candidate.channel == ev.candidate.channel]  # fmt: skip
+    out += [{"name": "shape misfit (its residual needs a curvature: "
+                     "not the effect's shape)", "channel": m["channel"], "delta_bic": None,
+             "glr": m["glr"], "p_value": m["p_value"]}
+            for m in dg.misfits if m["key"] == ev.candidate.key]  # fmt: skip
     mine = _axes(ev.candidate.channel)
     kin = ev.candidate.group == "kinematic"  # its structure is in the readout residual
     left = [c for c in dg.locations_after.channels
@@ -95,6 +101,9 @@ def _unexplained_at(dg: Diagnosis, rep: dict) -> dict:
             loc["time_s"].append([p["t0_s"], p["t0_s"]])
         if "frequency_hz" in p:
             loc["frequency_hz"].append([p["frequency_hz"], p["frequency_hz"]])
+    for m in dg.misfits:  # a shape the catalogue name does not have: unexplained there
+        if m["channel"] not in loc["channels"]:
+            loc["channels"].append(m["channel"])
     return loc
 
 

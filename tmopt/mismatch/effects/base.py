@@ -310,6 +310,15 @@ class Effect:
         """The effect's variants (one per test mass / axis / channel pair) for ``ctx``."""
         raise NotImplementedError
 
+    def shape_check(self, ctx: Context, cand: Candidate) -> list[Column]:
+        """Columns that a selected ``cand`` of this effect must *not* need (empty: no
+        check).  The effect's name promises a shape (a drift is linear in time); when
+        these columns, added to the final model, are significant at
+        :data:`tmopt.mismatch.calibration.SHAPE_ALPHA`, the residual on that channel has
+        the effect's kind of structure but not its shape (a slow bias modulation read
+        as a linear drift), and the name is reported ambiguous, the channel unexplained."""
+        return []
+
     def untestable(self, ctx: Context) -> str | None:
         """Why this recording cannot test the effect at all (e.g. missing channels)."""
         return None

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from tmopt.mismatch.effects.base import (
     AXES,
     Builder,
@@ -16,6 +18,7 @@ from tmopt.mismatch.effects.base import (
     finite,
     ramp_average,
 )
+from tmopt.mismatch.fit import Column, axis_column
 
 
 class BiasDrift(Effect):
@@ -48,3 +51,15 @@ class BiasDrift(Effect):
         span = max(float(t[-1]), ctx.data.dt)
         return [self.equation_candidate(a, "fdot", "m s^-3", t, ctx, i, self.plausible / span)
                 for i, a in enumerate(AXES)]  # fmt: skip
+
+    def shape_check(self, ctx: Context, cand: Candidate) -> list[Column]:
+        """Legendre P2 and P3 of the record's time on the drift's axis: a linear drift
+        leaves nothing for them; a slow modulation, a relaxation or any curved bias
+        change does (over a record shorter than its period a 1e-4 Hz modulation is mostly
+        a ramp; only its curved part tells them apart -- when that part is below the
+        noise, the data cannot, and the drift name stands)."""
+        d = ctx.data
+        u = 2.0 * d.centred_time / max(float(np.ptp(d.time)), d.dt)  # [-1, 1]
+        a = AXES.index(cand.channel)
+        return [Column(f"shape:{cand.key}:P{k}", axis_column(ctx.basis, a, poly))
+                for k, poly in ((2, 1.5 * u**2 - 0.5), (3, 2.5 * u**3 - 1.5 * u))]  # fmt: skip
