@@ -12,6 +12,8 @@ their search counted as trials (Bonferroni) and their searched parameters in the
 penalty, like any candidate:
 
 * ``step`` -- a force ``H(t - t0)`` (onset searched);
+* ``relaxation`` -- ``(1 - exp(-(t - t0)/tau)) H(t - t0)``: a force relaxing to a new
+  level (onset and tau searched around the best steps);
 * ``stiffness step`` -- ``x_a H(t - t0)``: the axis's stiffness changes at t0;
 * ``curvature`` -- ``(t - t_mid)^2``: a bias that changes non-linearly (the catalogue's
   drift is linear);
@@ -83,8 +85,11 @@ def _onset_search(ctx: Context, shape) -> list[tuple[float, int, float]]:
     return out
 
 
-def _onset_candidates(ctx: Context, kind: str, shape, words: str) -> list[Candidate]:
-    found = _onset_search(ctx, shape)
+def _onset_candidates(ctx: Context, kind: str, shape, words: str,
+                      found=None) -> list[Candidate]:  # fmt: skip
+    """The best of an onset search of ``shape`` (``found``: its result, else searched)."""
+    if found is None:
+        found = _onset_search(ctx, shape)
     lam, a, t0 = max(found)
     if lam <= 0:
         return []
@@ -96,11 +101,61 @@ def _onset_candidates(ctx: Context, kind: str, shape, words: str) -> list[Candid
 
 
 def _steps(ctx: Context) -> list[Candidate]:
+    """The best lasting force step, and the best relaxation around the steps found."""
     t = ctx.data.time
+
+    def step(a: int, t0: float) -> np.ndarray:
+        return (t >= t0).astype(float)
+
+    found = _onset_search(ctx, step)
     return _onset_candidates(
-        ctx, "step", lambda a, t0: (t >= t0).astype(float),
+        ctx, "step", step,
         "unexplained: a lasting step of the force on {ch} ({where}) at t = {t0:.1f} s "
-        "(no catalogue effect is a step)")  # fmt: skip
+        "(no catalogue effect is a step)", found) + _relaxations(ctx, found)  # fmt: skip
+
+
+#: Relaxation times searched [s] (thermal and charging relaxations of LPF: minutes to
+#: about an hour; longer ones are drifts over these records), and onsets before the best
+#: step's, in units of the relaxation time (a relaxation's best-fitting step comes later
+#: than its onset).
+RELAX_TAUS = (30.0, 60.0, 120.0, 250.0, 500.0, 1000.0)
+RELAX_LEADS = np.linspace(0.0, 1.5, 7)
+#: Axes (best step statistic first) on which the relaxation is searched.
+RELAX_AXES = 2
+
+
+def _relaxations(ctx: Context, found: list[tuple[float, int, float]]) -> list[Candidate]:
+    """A force that relaxes to a new level, ``(1 - exp(-(t - t0)/tau)) H(t - t0)`` (a
+    thermal or charging relaxation; the step is its tau -> 0 limit): onset and tau searched
+    around the best step onsets ``found`` (:func:`_onset_search`) of the ``RELAX_AXES``
+    best axes.  Several glitches in a row or a glitch and a drift otherwise stand in for
+    it under catalogue names."""
+    d = ctx.data
+    t = d.time
+    e = ctx.eq_noise.whiten(ctx.eq_residual)
+    best = (-1.0, 0, 0.0, 0.0)
+    for _, a, ts in sorted(found, reverse=True)[:RELAX_AXES]:
+        for tau in RELAX_TAUS:
+            for lead in RELAX_LEADS:
+                t0 = ts - lead * tau
+                if not t[0] < t0 < t[-1]:
+                    continue
+                shape = -np.expm1(-np.maximum(t - t0, 0.0) / tau)
+                lam = _stat(e, ctx.eq_noise.whiten(axis_column(ctx.basis, a, shape)))
+                if lam > best[0]:
+                    best = (lam, a, float(t0), tau)
+    lam, a, t0, tau = best
+    if lam <= 0:
+        return []
+    shape = -np.expm1(-np.maximum(t - t0, 0.0) / tau)
+    col = Column(f"{GENERIC}:relaxation[{AXES[a]}]", axis_column(ctx.basis, a, shape))
+    trials = 4.0 * (N_ONSETS + N_REFINE) * len(RELAX_TAUS) * len(RELAX_LEADS)
+    return [Candidate(GENERIC, AXES[a], "equation", ["relaxation"], ["m s^-2"], [col], None,
+                      trials=trials, n_searched=2,
+                      fixed={"feature": "relaxation", "t0_s": t0, "tau_s": tau},
+                      text=f"unexplained: the force on {AXES[a]} ({TMS[AXES[a]]}) relaxes to "
+                           f"a new level from t = {t0:.1f} s with time constant ~{tau:.0f} s "
+                           "(no catalogue effect is a lasting exponential change)")]  # fmt: skip
 
 
 def _stiffness_steps(ctx: Context) -> list[Candidate]:
