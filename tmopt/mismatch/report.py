@@ -101,9 +101,12 @@ def _unexplained_at(dg: Diagnosis, rep: dict) -> dict:
             loc["time_s"].append([p["t0_s"], p["t0_s"]])
         if "frequency_hz" in p:
             loc["frequency_hz"].append([p["frequency_hz"], p["frequency_hz"]])
-    for m in dg.misfits:  # a shape the catalogue name does not have: unexplained there
-        if m["channel"] not in loc["channels"]:
-            loc["channels"].append(m["channel"])
+    # a name that is ambiguous with an unnamed shape (a feature within AMBIGUOUS_DBIC, or
+    # one its own residual needs: a shape misfit) leaves its channel unexplained
+    for a in rep["ambiguous"]:
+        if any(r["name"] not in _NEEDS for r in a["rivals"]) and \
+                a["channel"] not in loc["channels"]:  # fmt: skip
+            loc["channels"].append(a["channel"])
     return loc
 
 
