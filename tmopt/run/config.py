@@ -42,6 +42,15 @@ CONSTRUCTOR_GROUP = "constructor"
 BUILT_ARGUMENTS = ("surrogate",)
 
 
+#: The PlatEMO-parity arguments added after runs were made (issue 24, part 4; the
+#: defaults are the fixes those runs had), by ``module.Class`` under tmopt.algorithms.
+PLATEMO_PARITY_ARGUMENTS: dict[str, tuple[str, ...]] = {
+    "ctsea.CTSEA": ("archive_copies", "fill_initial_elite", "collapsed_range", "weights"),
+    "cmoes.CMOES": ("switch_keeps_populations", "stale_feasible_mask", "reference"),
+    "ssde.SSDE": ("reseed_first_nodes", "reference"),
+}
+
+
 def _objectives_fixed(node: dict) -> bool:
     from tmopt.problems.suites import SCALABLE
 
@@ -60,6 +69,8 @@ HASH_NEUTRAL_ARGUMENTS: dict[tuple[str, str, str], Callable[[dict], bool] | None
     ("problem", "tmopt.problems.suites.PymooBenchmark", "front_points"): None,
     ("problem", "tmopt.problems.suites.PymooBenchmark", "n_obj"): _objectives_fixed,
     ("problem", "tmopt.problems.stiffness.StiffnessProblem", "information_constraints"): None,
+    **{("algorithm", f"tmopt.algorithms.{target}", key): None
+       for target, keys in PLATEMO_PARITY_ARGUMENTS.items() for key in keys},
 }
 #: Arguments added later whose earlier behaviour is a value other than their constructor
 #: default (the default being the new behaviour): at that value they stay out of
