@@ -8,7 +8,12 @@ the smallest and of the median change rate mc (seed paper Eq. 20) each run measu
 mean IGD and HV, and the two-sided Wilcoxon rank-sum p of IGD and HV against the setting
 that differs only in ``--reference`` (default: the paper's ``algorithm.threshold=0.001``
 and ``algorithm.gap=20``). The numbers come from ``algorithm_summary`` (MGSAEA.summary), which
-every MGSAEA-family run writes into its metrics.json.
+every MGSAEA-family run writes into its metrics.json; runs of other algorithms (e.g. the
+PlatEMO-parity sweeps of C-TSEA, CMOES, SSDE, KTS, PEA) get IGD, HV and their tests, with
+the stage columns ``n/a``:
+
+    python experiments/stage_study.py multirun/platemo_parity_ea --keys problem,algorithm,\
+        algorithm.reference --reference algorithm.reference=tmopt --rescore
 """
 
 from __future__ import annotations
@@ -45,19 +50,21 @@ def stage_rows(sweep: Path, keys: list[str], reference: dict[str, str],
     groups: dict[tuple, list[dict]] = defaultdict(list)
     for run in discover_runs(sweep):
         run = rescored(run) if rescore else run
-        if run.status == COMPLETE and "stage_reached" in run.metrics.get("algorithm_summary", {}):
+        if run.status == COMPLETE:
             groups[tuple(run.value(k) for k in keys)].append(run.metrics)
     rows = []
     for setting in sorted(groups):
         runs = groups[setting]
         ref = tuple(reference.get(k, v) for k, v in zip(keys, setting))
         theirs = groups.get(ref) if ref != setting else None
-        summaries = [m["algorithm_summary"] for m in runs]
+        summaries = [m["algorithm_summary"] for m in runs
+                     if "stage_reached" in (m.get("algorithm_summary") or {})]
         mc = [s["mc"] for s in summaries if s["mc"]]
         tests = [fmt_p(rank_sum([m.get(q) for m in runs], [m.get(q) for m in theirs]))
                  if theirs else "" for q in ("igd", "hv")]
         rows.append([*setting, str(len(runs)),
-                     str(sum(s["stage_reached"] >= 2 for s in summaries)),
+                     str(sum(s["stage_reached"] >= 2 for s in summaries)) if summaries
+                     else "n/a",
                      _median([s["switch_iteration"] for s in summaries]),
                      _median([m["min"] for m in mc]), _median([m["median"] for m in mc]),
                      _mean([m.get("igd") for m in runs]), tests[0],
