@@ -11,7 +11,8 @@ from tmopt.run.cli import option_config
 from tmopt.run.config import PLATEMO_PARITY_ARGUMENTS, config_hash
 
 RUN = {"seed": 0, "budget": 300, "problem": {"_target_": "x.Problem"}}
-OPTIONS = {"ctsea.CTSEA": "ctsea", "cmoes.CMOES": "cmoes", "ssde.SSDE": "ssde"}
+OPTIONS = {"ctsea.CTSEA": "ctsea", "cmoes.CMOES": "cmoes", "ssde.SSDE": "ssde",
+           "kts.KTS": "kts", "pea.PEA": "pea", "drlsaea.DRLSAEA": "drlsaea"}
 
 
 def _hash(node: dict) -> str:

@@ -48,6 +48,10 @@ PLATEMO_PARITY_ARGUMENTS: dict[str, tuple[str, ...]] = {
     "ctsea.CTSEA": ("archive_copies", "fill_initial_elite", "collapsed_range", "weights"),
     "cmoes.CMOES": ("switch_keeps_populations", "stale_feasible_mask", "reference"),
     "ssde.SSDE": ("reseed_first_nodes", "reference"),
+    "kts.KTS": ("paired_convergence_test", "mixed_scale_deletion", "da_update",
+                "skip_evaluated", "kmeans_normalised", "reference"),
+    "pea.PEA": ("nan_ties", "random_fallback", "reference"),
+    "drlsaea.DRLSAEA": ("input_scaling", "same_budget_share", "per_set_reward"),
 }
 
 
