@@ -64,7 +64,7 @@ evaluate), following KTS.m:
    feasible non-dominated members of P2.
 6. Evaluate; update A1, CA, DA1, P1, P2 with the real values.
 
-Deviations from PlatEMO (docs/algorithms-baselines.md, "KTS"): the convergence test is
+Deviations from PlatEMO (docs/algorithms-frontier.md, "KTS"): the convergence test is
 Wilcoxon's rank-sum test (PlatEMO pairs the two unordered sets by index in a signed-rank
 test and skips it unless they have equal sizes); the I_eps+ deletion update uses the
 removed column's own scale for every column (PlatEMO mixes the scales); the DA update of
