@@ -89,9 +89,14 @@ def main(argv: list[str] | None = None) -> int:
     reference = dict(item.split("=", 1) for item in args.reference.split(","))
     header = [*keys, "runs", "stage two", "switch iteration (median)", "min mc (median)",
               "median mc (median)", "IGD", "p (IGD)", "HV", "p (HV)"]
+    rows = stage_rows(args.sweep, keys, reference, args.rescore)
+    if rows and all(row[len(keys) + 1] == "n/a" for row in rows):  # no MGSAEA-family run
+        stage_columns = set(range(len(keys) + 1, len(keys) + 5))
+        header, *rows = ([c for i, c in enumerate(r) if i not in stage_columns]
+                         for r in (header, *rows))
     print("| " + " | ".join(header) + " |")
     print("|" + " --- |" * len(header))
-    for row in stage_rows(args.sweep, keys, reference, args.rescore):
+    for row in rows:
         print("| " + " | ".join(row) + " |")
     return 0
 
