@@ -12,8 +12,12 @@ every MGSAEA-family run writes into its metrics.json; runs of other algorithms (
 PlatEMO-parity sweeps of C-TSEA, CMOES, SSDE, KTS, PEA) get IGD, HV and their tests, with
 the stage columns ``n/a``:
 
-    python experiments/stage_study.py multirun/platemo_parity_ea --keys problem,algorithm,\
-        algorithm.reference --reference algorithm.reference=tmopt --rescore
+    python experiments/stage_study.py multirun/platemo_parity_cmoes --rescore --compact \
+        --keys problem,algorithm.reference,algorithm.switch_keeps_populations \
+        --reference algorithm.reference=tmopt,algorithm.switch_keeps_populations=False
+
+``--compact``: one "setting" column instead of the keys after the first, naming the keys
+whose value differs from ``--reference`` ("tmopt defaults" where none does).
 """
 
 from __future__ import annotations
@@ -72,6 +76,19 @@ def stage_rows(sweep: Path, keys: list[str], reference: dict[str, str],
     return rows
 
 
+def _compact(header: list[str], rows: list[list[str]], keys: list[str],
+             reference: dict[str, str]) -> tuple[list[str], list[list[str]]]:
+    """The key columns after the first folded into one "setting" column (the keys whose
+    value differs from ``reference``), rows ordered: defaults, single changes, the rest."""
+    out = []
+    for row in rows:
+        off = [f"{k.split('.')[-1]}={v}" for k, v in zip(keys[1:], row[1:len(keys)])
+               if k in reference and str(v) != reference[k]]
+        out.append([row[0], ", ".join(off) or "tmopt defaults", *row[len(keys):]])
+    out.sort(key=lambda r: (r[0], r[1] != "tmopt defaults", "reference=" in r[1], r[1]))
+    return [header[0], "setting", *header[len(keys):]], out
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("sweep", type=Path)
@@ -81,6 +98,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="KEY=VALUE,... of the setting each row is tested against")
     ap.add_argument("--rescore", action="store_true",
                     help="recompute IGD and HV from the archives against today's fronts")
+    ap.add_argument("--compact", action="store_true",
+                    help="one 'setting' column: the keys (after the first) off --reference")
     args = ap.parse_args(argv)
     if not args.sweep.is_dir():
         print(f"stage_study: sweep folder {args.sweep} does not exist", file=sys.stderr)
@@ -94,6 +113,8 @@ def main(argv: list[str] | None = None) -> int:
         stage_columns = set(range(len(keys) + 1, len(keys) + 5))
         header, *rows = ([c for i, c in enumerate(r) if i not in stage_columns]
                          for r in (header, *rows))
+    if args.compact:
+        header, rows = _compact(header, rows, keys, reference)
     print("| " + " | ".join(header) + " |")
     print("|" + " --- |" * len(header))
     for row in rows:
