@@ -247,7 +247,8 @@ def platemo_diversity_archive(F: np.ndarray, n: int, p: float, rng: np.random.Ge
     chosen = np.zeros(len(nd), dtype=bool)
     if predicted:
         Fd = normalised(F)[nd]
-        chosen[rng.permutation(F.shape[1])[0]] = True
+        # (an index past the rows only when N < M: MATLAB would grow the mask; wrap instead)
+        chosen[rng.permutation(F.shape[1])[0] % len(nd)] = True
     else:
         Fd = F[nd]
         chosen[np.argmin(Fd, axis=0)] = True
