@@ -158,7 +158,7 @@ def test_collapsed_range_upper_bound_one_as_platemo():
     F = np.array([[2.0, 0.0], [2.0, 1.0], [2.0, 0.5]])  # f1 collapsed at 2 > 1
     ref, bounds = uniform_points(2, 2), np.array([[2.0, 0.0], [3.0, 1.0]])
     _, fixed = armoea_selection(F, ref, bounds, 3)
-    _, platemo = armoea_selection(F, ref, bounds, 3, collapsed_range="one")
+    _, platemo = armoea_selection(F, ref, bounds, 3, collapsed_to_one=True)
     assert fixed[1, 0] == 3.0 and platemo[1, 0] == 1.0  # PlatEMO: upper bound below ideal
     assert fixed[1, 1] == platemo[1, 1] == 1.0
 

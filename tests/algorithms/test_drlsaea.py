@@ -168,7 +168,7 @@ def test_cli_run(tmp_path):
 
 # ---- reference=platemo: each PlatEMO behaviour alone (docs/algorithms-frontier.md) ---------
 def test_configured_scaling_is_fixed_by_five_uniform_draws_and_saturates():
-    agent = _agent(input_scaling="configured", seed=3)
+    agent = _agent(configured=True, seed=3)
     rng = np.random.default_rng(3)
     draws = rng.random((5, 4))  # DDQN.m: configure(net, rand(4, 5), -rand(3, 5))
     targets = -rng.random((5, 3))

@@ -214,9 +214,9 @@ def last_front_selection(dist: np.ndarray, k: int) -> np.ndarray:
 
 
 def armoea_selection(F: np.ndarray, ref: np.ndarray, bounds: np.ndarray, n: int,
-                     collapsed_range: str = "ideal_plus_one") -> tuple[np.ndarray, np.ndarray]:
+                     collapsed_to_one: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """AR-MOEA's environmental selection on objectives only; returns ``(indices, bounds)``.
-    A collapsed range (< 1e-6) gets the upper bound ideal + 1 or, ``collapsed_range="one"``,
+    A collapsed range (< 1e-6) gets the upper bound ideal + 1 or, ``collapsed_to_one``,
     1 (PlatEMO)."""
     fronts = NonDominatedSorting().do(F, n_stop_if_ranked=n)
     keep = np.concatenate(fronts[:-1]).astype(int) if len(fronts) > 1 else np.zeros(0, int)
@@ -228,7 +228,7 @@ def armoea_selection(F: np.ndarray, ref: np.ndarray, bounds: np.ndarray, n: int,
     bounds = bounds.copy()
     bounds[1] = F[idx].max(axis=0)
     flat = bounds[1] - bounds[0] < 1e-6
-    bounds[1, flat] = 1.0 if collapsed_range == "one" else bounds[0, flat] + 1.0
+    bounds[1, flat] = 1.0 if collapsed_to_one else bounds[0, flat] + 1.0
     return idx, bounds
 
 
@@ -333,7 +333,7 @@ class CTSEA(Algorithm):
                 np.vstack([self.ref_archive, new["F"]]), self.W, self.bounds)
             self.elite = self._update_elite(self.elite, both)
             idx, self.bounds = armoea_selection(both["F"], self.ref, self.bounds, self.pop_size,
-                                                self.collapsed_range)
+                                                self.collapsed_range == "one")
             self.pop = _take(both, idx)
         else:
             both = _join(self.pop, new)

@@ -81,19 +81,20 @@ class DoubleDQN:
         discount: gamma of the target r + gamma Q_target(s', argmax_a Q(s', a)).
         train_epochs, learning_rate: Adam on the batch's mean squared error.
         seed: Seeds the network weights and the replay sampling.
-        input_scaling: see :data:`INPUT_SCALINGS`.
+        configured: the "configured" input scaling of :data:`INPUT_SCALINGS` (else
+            "buffer").
     """
 
     def __init__(self, n_states: int, n_actions: int, *, hidden: tuple[int, ...],
                  buffer_size: int, discount: float, train_epochs: int, learning_rate: float,
-                 seed: int, input_scaling: str = "buffer") -> None:
+                 seed: int, configured: bool = False) -> None:
         self.n_actions = n_actions
         self.discount = discount
         self.train_epochs = train_epochs
         self.learning_rate = learning_rate
         self.rng = np.random.default_rng(seed)
-        self.input_scaling = input_scaling
-        if input_scaling == "configured":  # DDQN.m: configure(net, rand(nS, 5), -rand(nA, 5))
+        self.input_scaling = "configured" if configured else "buffer"
+        if configured:  # DDQN.m: configure(net, rand(nS, 5), -rand(nA, 5))
             draws = self.rng.random((5, n_states))
             self.in_lo, self.in_hi = draws.min(axis=0), draws.max(axis=0)
             targets = -self.rng.random((5, n_actions))
@@ -279,7 +280,7 @@ class DRLSAEA(MGSAEA):
                                train_epochs=self.train_epochs,
                                learning_rate=self.learning_rate,
                                seed=int(self.rng.integers(2**31)),
-                               input_scaling=self.input_scaling)
+                               configured=self.input_scaling == "configured")
         self.action: int | None = None
         self._state: np.ndarray | None = None
         self._before: tuple[np.ndarray, np.ndarray] | None = None
