@@ -414,6 +414,26 @@ def _hash_inert_surrogate(data: dict) -> None:
         sur.update(INERT_SURROGATE_VALUES[sur["_target_"]])
 
 
+#: What :func:`earlier_value` returns for an argument the registries do not list.
+UNKNOWN = object()
+
+
+def earlier_value(group: str, node: dict, key: str) -> object:
+    """The value a run ran with whose configuration ``node`` (of config group ``group``)
+    does not name ``key`` because the argument came later: the constructor default for
+    :data:`HASH_NEUTRAL_ARGUMENTS`, the listed value for :data:`HASH_NEUTRAL_VALUES`
+    (where present), else :data:`UNKNOWN`.  The same rules keep those runs' hashes, so a
+    run that names the value and one made before the argument existed are one setting."""
+    target = node.get("_target_")
+    values = globals().get("HASH_NEUTRAL_VALUES", {})
+    if (group, target, key) in values:
+        return values[(group, target, key)]
+    applies = HASH_NEUTRAL_ARGUMENTS.get((group, target, key), UNKNOWN)
+    if applies is UNKNOWN or (applies is not None and not applies(node)):
+        return UNKNOWN
+    return _plain(constructor_parameters(get_class(target))[key].default)
+
+
 def config_hash(cfg: DictConfig) -> str:
     """Hash of everything that determines a run's numbers (run-only keys excluded)."""
     data = OmegaConf.to_container(cfg, resolve=True)
