@@ -18,15 +18,14 @@ configurations agree, whichever sweep (or launcher) produced them.
 
 from __future__ import annotations
 
-import functools
-import importlib
-import inspect
 import json
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from omegaconf import OmegaConf
+
+from tmopt.run.config import UNKNOWN, earlier_value
 
 COMPLETE, FAILED, INCOMPLETE = "complete", "failed", "incomplete"
 #: Config groups of tmopt/conf/ (their effective value is Hydra's recorded choice).
@@ -78,11 +77,11 @@ class RunRecord:
     def value(self, key: str) -> str:
         """Effective value of a setting key (group choice or dotted config key) as text.
 
-        A key the run's configuration does not have is the default of its node's
-        ``_target_`` parameter when the target has one (a run made before a parameter was
-        added ran with that default: parameters are added hash-neutral, docs/decisions.md),
-        else ``""`` (e.g. ``algorithm.batch_size`` of an algorithm without that parameter),
-        unlike a key set to null (``None``).
+        A key the run's configuration does not have is the value the run ran with when
+        the argument came after the run (the hash-neutral registries of
+        :mod:`tmopt.run.config`: :func:`~tmopt.run.config.earlier_value`), else ``""``
+        (e.g. ``algorithm.batch_size`` of an algorithm without that parameter), unlike a
+        key set to null (``None``).
         """
         if key in GROUP_KEYS:
             choice = self.choices.get(key) or self.overrides.get(key)
@@ -94,8 +93,11 @@ class RunRecord:
             if not isinstance(node, dict) or part not in node:
                 if key in self.overrides:
                     return str(self.overrides[key])
-                default = _target_default(node, part) if isinstance(node, dict) else _NONE
-                return "" if default is _NONE else _text(default)
+                group = key.split(".", 1)[0]
+                earlier = earlier_value(group, node, part) \
+                    if isinstance(node, dict) and "." in key and key.count(".") == 1 \
+                    else UNKNOWN
+                return "" if earlier is UNKNOWN else _text(earlier)
             node = node[part]
         return _text(node)
 
@@ -107,29 +109,6 @@ class RunRecord:
     def is_stiffness(self) -> bool:
         target = str((self.config.get("problem") or {}).get("_target_", ""))
         return target.endswith("StiffnessProblem") or self.value("problem") == "stiffness"
-
-
-_NONE = object()
-
-
-@functools.cache
-def _signature_default(target: str, parameter: str) -> object:
-    """Default of ``parameter`` in the signature of the callable ``target`` (dotted path),
-    or ``_NONE`` when the target cannot be imported or has no such defaulted parameter."""
-    module, _, name = target.rpartition(".")
-    try:
-        obj = getattr(importlib.import_module(module), name)
-        param = inspect.signature(obj).parameters.get(parameter)
-    except (ImportError, AttributeError, ValueError, TypeError):
-        return _NONE
-    if param is None or param.default is inspect.Parameter.empty:
-        return _NONE
-    return param.default
-
-
-def _target_default(node: dict, parameter: str) -> object:
-    target = node.get("_target_")
-    return _NONE if not isinstance(target, str) else _signature_default(target, parameter)
 
 
 def _text(value) -> str:
