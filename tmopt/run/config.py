@@ -71,6 +71,7 @@ HASH_NEUTRAL_VALUES: dict[tuple[str, str, str], object] = {
     ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "refit_every"): 1,
     ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "refit_guard"): None,
     ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "prune_samples"): None,
+    ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "gp_guard_max_iter"): None,
     ("surrogate", "tmopt.surrogates.gp.GPSurrogate", "refit_guard"): None,
 }
 #: For an algorithm that takes no surrogate, the surrogate group changes no number, yet it
