@@ -206,6 +206,67 @@ def profile_table(prof: cProfile.Profile, iters: int) -> dict[str, float]:
     return out
 
 
+def guard_fit_quality(problem, data, sizes, caps) -> None:
+    """What capping a guard-triggered re-fit costs the GPs (``gp_guard_max_iter``): at each
+    size n, the GPs are fitted on the first n - 5 designs (PREVIOUS_FIT_MAX_ITER, the
+    previous optimum), then the guard re-fits them on n designs with each cap; printed:
+    CPU s, the L-BFGS-B iterations, the optimised objective (negative log marginal
+    likelihood + priors, per data point, summed over the outputs; lower is better) and
+    the mean negative log predictive density (NLPD) and RMSE of the next 25 designs of the
+    archive (the ones the run's acquisition chose next), targets as the algorithm scales
+    them, a predictive std floor of 1e-3 of the output's spread."""
+    import copy
+
+    import tmopt.surrogates.gp as gpmod
+    from tmopt.evaluation.evaluator import EvaluatedBatch
+    from tmopt.surrogates.gp import GPSurrogate
+
+    fvals: list[float] = []
+    scipy_fit = gpmod.fit_gpytorch_mll_scipy
+
+    def recording(mll, **kwargs):
+        result = scipy_fit(mll, **kwargs)
+        fvals.append(float(result.fval))
+        return result
+
+    print("\nGuard-triggered GP re-fit, capped (gp_guard_max_iter): CPU s, objective, "
+          "prediction of the next 25 designs\n")
+    print("| n | cap | CPU s | L-BFGS-B iterations per output | -log ML / n (sum) | "
+          "NLPD next 25 | RMSE / std next 25 |")
+    print("|---|---|---|---|---|---|---|")
+    gpmod.fit_gpytorch_mll_scipy = recording
+    try:
+        for n in sizes:
+            alg = algorithm_from_yaml("qlognehvi")
+            alg.setup(problem, budget=n + 30, seed=0)
+            alg.tell(EvaluatedBatch(X=data.X[:n + 25], F=data.F[:n + 25], G=data.G[:n + 25],
+                                    failed=data.failed[:n + 25], reason=[""] * (n + 25)))
+            Y, _ = alg._training_targets()
+            U = alg.U
+            base = GPSurrogate(max_iter=PREVIOUS_FIT_MAX_ITER, refit_every=5,
+                               refit_guard=1e-12, rbf_fallback=False)  # the guard always fires
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                base.fit(U[:n - 5], Y[:n - 5])
+                for cap in caps:
+                    gp = copy.deepcopy(base)
+                    gp.max_iter, gp.guard_max_iter = alg.gp_max_iter, cap
+                    fvals.clear()
+                    with Clock() as c:
+                        gp.fit(U[:n], Y[:n])
+                    mean, std = gp.predict(U[n:n + 25])
+                    y, spread = Y[n:n + 25], Y[:n].std(axis=0)
+                    spread = np.where(spread > 0, spread, 1.0)  # a constant output
+                    s = np.sqrt(std ** 2 + (1e-3 * spread) ** 2)
+                    nlpd = 0.5 * np.log(2 * np.pi * s ** 2) + 0.5 * ((y - mean) / s) ** 2
+                    rmse = np.sqrt(((y - mean) ** 2).mean(axis=0)) / spread
+                    print(f"| {n} | {cap} | {c.cpu:.1f} | {gp.fit_info['iterations']} | "
+                          f"{sum(fvals):.4f} | {nlpd.mean():.3f} | {rmse.mean():.3f} |",
+                          flush=True)
+    finally:
+        gpmod.fit_gpytorch_mll_scipy = scipy_fit
+
+
 def acquisition_call_ms(problem, data, n: int) -> dict[str, float]:
     """CPU ms of one qLogNEHVI evaluation (value + gradient, 4 restarts) and of scoring
     256 raw samples, through GPyTorch and through CachedJointGP, on the same acquisition
@@ -573,6 +634,10 @@ def main() -> None:
                     choices=["new", "reference", "reference, max_baseline=64",
                              "new, max_baseline=64"],
                     help="qLogNEHVI variants to time (default: all the mode has)")
+    ap.add_argument("--guard-fits", type=int, nargs="+", default=None, metavar="CAP",
+                    help="instead of timing iterations: the guard-triggered GP re-fit with "
+                         "these L-BFGS-B caps at each --sizes (needs --archive; "
+                         "gp_guard_max_iter's evidence in docs/speed.md)")
     ap.add_argument("--iters", type=int, default=None,
                     help="iterations of the default settings per size (default: one refit "
                          "cycle, refit_every); the reference variants run one")
@@ -582,6 +647,10 @@ def main() -> None:
         sys.exit(f"bench_speed: --sizes must be in [50, 697], got {sizes}")
     print(f"bench_speed ({'quick' if args.quick else 'full'}): {load()}, "
           f"cores {os.cpu_count()}")
+    if args.guard_fits:
+        problem, data = stiffness_archive(max(sizes) + 25, args.archive)
+        guard_fit_quality(problem, data, sizes, args.guard_fits)
+        return
     with Clock() as total:
         r1 = section_qlognehvi(sizes, args.quick, args.profile, args.archive, args.variants,
                                args.iters) \
