@@ -48,6 +48,7 @@ from __future__ import annotations
 import argparse
 import cProfile
 import inspect
+import json
 import os
 import pstats
 import sys
@@ -389,6 +390,47 @@ def per_run(problem, cpu_at: dict[int, float], budget: int = 697, q: int = 5) ->
     return float(np.interp(sizes, xs, [cpu_at[x] for x in xs]).sum())
 
 
+#: A progress line of a qLogNEHVI run: designs so far, the fit's stage and guard statistic.
+_PROGRESS = r"evals (\d+)/\d+ .*iteration=\d+ fit=[\d.]+s acq=[\d.]+s gp=(\w+)( surprise=([\d.]+))?"
+
+
+def run_cost_from_log(log: Path, costs: dict, guard: float = 4.0) -> None:
+    """CPU minutes of a whole qLogNEHVI run from per-iteration costs and the run's own
+    stage sequence (docs/speed.md, "Per run in the Table 3 setting").
+
+    Every iteration of the run's ``tmopt.log`` gives its number of designs n and its fit
+    stage: kept, re-fitted because the guard fired (surprise > ``guard``), or re-fitted by
+    the schedule. Its cost = ``acq(n)`` + the stage's fit cost at n (``kept``, ``fit50``
+    for a full re-fit, ``fit10`` for a capped guard re-fit after gp_guard_max_iter), each
+    interpolated linearly between the measured sizes (constant outside); the reference's
+    ``ref(n)`` likewise. ``costs``: {key: {n: CPU s}} for acq, kept, fit50, fit10, ref.
+    """
+    import re
+
+    stages = []
+    for line in log.read_text().splitlines():
+        m = re.search(_PROGRESS, line)
+        if m:
+            surprise = None if m[4] is None else float(m[4])
+            kind = "kept" if m[2] == "kept_hypers" else (
+                "guard" if surprise is not None and surprise > guard else "scheduled")
+            stages.append((int(m[1]) - 5, kind))  # the fit saw the designs before its batch
+
+    def at(key: str, n: int) -> float:
+        xs = sorted(int(x) for x in costs[key])
+        return float(np.interp(n, xs, [costs[key][str(x)] for x in xs]))
+
+    fit = {"before": {"kept": "kept", "guard": "fit50", "scheduled": "fit50"},
+           "after": {"kept": "kept", "guard": "fit10", "scheduled": "fit50"}}
+    total = {v: sum(at("acq", n) + at(fit[v][k], n) for n, k in stages) for v in fit}
+    total["reference"] = sum(at("ref", n) for n, _ in stages)
+    counts = {k: sum(1 for _, s in stages if s == k) for k in ("kept", "guard", "scheduled")}
+    print(f"\n{len(stages)} iterations ({counts}); CPU min per run: "
+          + ", ".join(f"{v} {t / 60:.1f}" for v, t in total.items()))
+    print(f"R1 per run: reference / before = {total['reference'] / total['before']:.1f}, "
+          f"reference / after = {total['reference'] / total['after']:.1f}")
+
+
 def print_profiles(per: dict, sizes) -> None:
     print("\nWhere an iteration's time goes (cProfile, wall seconds per iteration, "
           "cumulative; nested rows overlap):\n")
@@ -638,6 +680,9 @@ def main() -> None:
                     help="instead of timing iterations: the guard-triggered GP re-fit with "
                          "these L-BFGS-B caps at each --sizes (needs --archive; "
                          "gp_guard_max_iter's evidence in docs/speed.md)")
+    ap.add_argument("--run-cost", type=Path, nargs=2, default=None, metavar=("LOG", "COSTS"),
+                    help="per-run CPU of a qLogNEHVI run from its tmopt.log's stages and a "
+                         "JSON file of per-iteration costs (run_cost_from_log)")
     ap.add_argument("--iters", type=int, default=None,
                     help="iterations of the default settings per size (default: one refit "
                          "cycle, refit_every); the reference variants run one")
@@ -647,6 +692,9 @@ def main() -> None:
         sys.exit(f"bench_speed: --sizes must be in [50, 697], got {sizes}")
     print(f"bench_speed ({'quick' if args.quick else 'full'}): {load()}, "
           f"cores {os.cpu_count()}")
+    if args.run_cost:
+        run_cost_from_log(args.run_cost[0], json.loads(args.run_cost[1].read_text()))
+        return
     if args.guard_fits:
         problem, data = stiffness_archive(max(sizes) + 25, args.archive)
         guard_fit_quality(problem, data, sizes, args.guard_fits)
