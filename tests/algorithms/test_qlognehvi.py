@@ -383,6 +383,12 @@ def test_runs_before_gp_guard_max_iter_keep_their_hash_with_it_at_null():
     assert config_hash(OmegaConf.create(
         {**run, "algorithm": {**default, "gp_guard_max_iter": None}})) == old
     assert config_hash(OmegaConf.create({**run, "algorithm": default})) != old
+    # the GP surrogate's own guard_max_iter (null by default) leaves every run's hash alone
+    gp = OmegaConf.to_container(option_config("surrogate", "gp"))
+    assert "guard_max_iter" in gp and gp["guard_max_iter"] is None
+    without = {k: v for k, v in gp.items() if k != "guard_max_iter"}
+    assert config_hash(OmegaConf.create({**run, "algorithm": before, "surrogate": gp})) \
+        == config_hash(OmegaConf.create({**run, "algorithm": before, "surrogate": without}))
 
 
 def test_gp_guard_max_iter_reaches_the_gp_and_is_checked():
