@@ -369,20 +369,20 @@ def test_the_reference_yaml_pins_the_earlier_settings_and_keeps_their_config_has
 
 def test_runs_before_gp_guard_max_iter_keep_their_hash_with_it_at_null():
     """Runs of the default made before gp_guard_max_iter existed (no key) hash like the
-    default with algorithm.gp_guard_max_iter=null, not like today's default (10)."""
+    default (null), not like the capped setting (10)."""
     from omegaconf import OmegaConf
 
     from tmopt.run.cli import option_config
     from tmopt.run.config import config_hash
 
     default = OmegaConf.to_container(option_config("algorithm", "qlognehvi"))
-    assert default["gp_guard_max_iter"] == 10 == QLogNEHVI().gp_guard_max_iter
+    assert default["gp_guard_max_iter"] is None is QLogNEHVI().gp_guard_max_iter
     before = {k: v for k, v in default.items() if k != "gp_guard_max_iter"}
     run = {"seed": 0, "budget": 697, "problem": {"_target_": "x.Problem"}}
     old = config_hash(OmegaConf.create({**run, "algorithm": before}))
+    assert config_hash(OmegaConf.create({**run, "algorithm": default})) == old
     assert config_hash(OmegaConf.create(
-        {**run, "algorithm": {**default, "gp_guard_max_iter": None}})) == old
-    assert config_hash(OmegaConf.create({**run, "algorithm": default})) != old
+        {**run, "algorithm": {**default, "gp_guard_max_iter": 10}})) != old
     # the GP surrogate's own guard_max_iter (null by default) leaves every run's hash alone
     gp = OmegaConf.to_container(option_config("surrogate", "gp"))
     assert "guard_max_iter" in gp and gp["guard_max_iter"] is None
