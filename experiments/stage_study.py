@@ -8,7 +8,16 @@ the smallest and of the median change rate mc (seed paper Eq. 20) each run measu
 mean IGD and HV, and the two-sided Wilcoxon rank-sum p of IGD and HV against the setting
 that differs only in ``--reference`` (default: the paper's ``algorithm.threshold=0.001``
 and ``algorithm.gap=20``). The numbers come from ``algorithm_summary`` (MGSAEA.summary), which
-every MGSAEA-family run writes into its metrics.json.
+every MGSAEA-family run writes into its metrics.json; runs of other algorithms (e.g. the
+PlatEMO-parity sweeps of C-TSEA, CMOES, SSDE, KTS, PEA) get IGD, HV and their tests, with
+the stage columns ``n/a``:
+
+    python experiments/stage_study.py multirun/platemo_parity_cmoes --rescore --compact \
+        --keys problem,algorithm.reference,algorithm.switch_keeps_populations \
+        --reference algorithm.reference=tmopt,algorithm.switch_keeps_populations=False
+
+``--compact``: one "setting" column instead of the keys after the first, naming the keys
+whose value differs from ``--reference`` ("tmopt defaults" where none does).
 """
 
 from __future__ import annotations
@@ -45,24 +54,39 @@ def stage_rows(sweep: Path, keys: list[str], reference: dict[str, str],
     groups: dict[tuple, list[dict]] = defaultdict(list)
     for run in discover_runs(sweep):
         run = rescored(run) if rescore else run
-        if run.status == COMPLETE and "stage_reached" in run.metrics.get("algorithm_summary", {}):
+        if run.status == COMPLETE:
             groups[tuple(run.value(k) for k in keys)].append(run.metrics)
     rows = []
     for setting in sorted(groups):
         runs = groups[setting]
         ref = tuple(reference.get(k, v) for k, v in zip(keys, setting))
         theirs = groups.get(ref) if ref != setting else None
-        summaries = [m["algorithm_summary"] for m in runs]
+        summaries = [m["algorithm_summary"] for m in runs
+                     if "stage_reached" in (m.get("algorithm_summary") or {})]
         mc = [s["mc"] for s in summaries if s["mc"]]
         tests = [fmt_p(rank_sum([m.get(q) for m in runs], [m.get(q) for m in theirs]))
                  if theirs else "" for q in ("igd", "hv")]
         rows.append([*setting, str(len(runs)),
-                     str(sum(s["stage_reached"] >= 2 for s in summaries)),
+                     str(sum(s["stage_reached"] >= 2 for s in summaries)) if summaries
+                     else "n/a",
                      _median([s["switch_iteration"] for s in summaries]),
                      _median([m["min"] for m in mc]), _median([m["median"] for m in mc]),
                      _mean([m.get("igd") for m in runs]), tests[0],
                      _mean([m.get("hv") for m in runs]), tests[1]])
     return rows
+
+
+def _compact(header: list[str], rows: list[list[str]], keys: list[str],
+             reference: dict[str, str]) -> tuple[list[str], list[list[str]]]:
+    """The key columns after the first folded into one "setting" column (the keys whose
+    value differs from ``reference``), rows ordered: defaults, single changes, the rest."""
+    out = []
+    for row in rows:
+        off = [f"{k.split('.')[-1]}={v}" for k, v in zip(keys[1:], row[1:len(keys)])
+               if k in reference and str(v) != reference[k]]
+        out.append([row[0], ", ".join(off) or "tmopt defaults", *row[len(keys):]])
+    out.sort(key=lambda r: (r[0], r[1] != "tmopt defaults", "reference=" in r[1], r[1]))
+    return [header[0], "setting", *header[len(keys):]], out
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -74,6 +98,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="KEY=VALUE,... of the setting each row is tested against")
     ap.add_argument("--rescore", action="store_true",
                     help="recompute IGD and HV from the archives against today's fronts")
+    ap.add_argument("--compact", action="store_true",
+                    help="one 'setting' column: the keys (after the first) off --reference")
     args = ap.parse_args(argv)
     if not args.sweep.is_dir():
         print(f"stage_study: sweep folder {args.sweep} does not exist", file=sys.stderr)
@@ -82,9 +108,16 @@ def main(argv: list[str] | None = None) -> int:
     reference = dict(item.split("=", 1) for item in args.reference.split(","))
     header = [*keys, "runs", "stage two", "switch iteration (median)", "min mc (median)",
               "median mc (median)", "IGD", "p (IGD)", "HV", "p (HV)"]
+    rows = stage_rows(args.sweep, keys, reference, args.rescore)
+    if rows and all(row[len(keys) + 1] == "n/a" for row in rows):  # no MGSAEA-family run
+        stage_columns = set(range(len(keys) + 1, len(keys) + 5))
+        header, *rows = ([c for i, c in enumerate(r) if i not in stage_columns]
+                         for r in (header, *rows))
+    if args.compact:
+        header, rows = _compact(header, rows, keys, reference)
     print("| " + " | ".join(header) + " |")
     print("|" + " --- |" * len(header))
-    for row in stage_rows(args.sweep, keys, reference, args.rescore):
+    for row in rows:
         print("| " + " | ".join(row) + " |")
     return 0
 

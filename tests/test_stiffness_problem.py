@@ -271,6 +271,22 @@ def test_extra_metrics_write_heldout_and_floor_blocks():
     assert isinstance(fl["below_floor"], list)
 
 
+def test_a_long_heldout_scoring_shows_progress(monkeypatch, caplog):
+    # The front's re-scoring can be minutes after the search's last progress line: it
+    # says what it scores, then how far it is (here: a line after every chunk).
+    from tmopt.problems import heldout
+
+    monkeypatch.setattr(heldout, "PROGRESS_EVERY_S", 0.0)
+    p = StiffnessProblem(scheme="B", n_freq=1, duration=60.0, heldout_seeds=2, chunk=2)
+    X = np.vstack([FIG6_2, FIG6_2])
+    with caplog.at_level("INFO", logger="tmopt.progress"):
+        sc = heldout.scores(p, X, np.array([2**52, 2**52 + 1]))
+    assert sc["M_TM1"].shape == (4, 2)
+    lines = [r.getMessage() for r in caplog.records if "held-out scoring" in r.getMessage()]
+    assert lines[-1].startswith("held-out scoring: 4/4 designs x 2 seeds")
+    assert len(lines) == 4  # chunk 2 runs = one design x 2 seeds per call
+
+
 def test_heldout_seeds_must_not_have_scored_the_search():
     from tmopt.evaluation.archive import ArchiveData
 

@@ -145,3 +145,75 @@ def test_cli_run(tmp_path):
     metrics = cli_metrics(tmp_path, "problem=mw1", "algorithm=cmoes", "budget=100",
                           "algorithm.pop_size=10", "algorithm.operator=de")
     assert metrics["algorithm"] == "cmoes" and metrics["n_evals"] == 100
+
+
+# ---- reference=platemo: each PlatEMO behaviour alone (docs/algorithms-baselines.md) --------
+def _at_the_switch(**kwargs) -> CMOES:
+    """A CMOES in stage one on MW3 (budget 2000: 20 stage-one generations) once P1 holds a
+    feasible design."""
+    problem = PymooBenchmark("mw3", n_var=6)
+    alg = CMOES(pop_size=20, **kwargs)
+    alg.setup(problem, budget=2000, seed=3)
+    ev = Evaluator(problem, 2000)
+    alg.tell(ev.evaluate(alg.ask()))
+    while not np.any(alg.p1.cv == 0.0):
+        alg.tell(ev.evaluate(alg.ask()))
+    assert alg.stage == 1
+    alg._tau = 0.2
+    return alg
+
+
+def test_switch_keeps_populations_reads_the_even_searchs_fitness_as_platemo():
+    fixed, platemo = _at_the_switch(), _at_the_switch(switch_keeps_populations=True)
+    assert np.array_equal(fixed.p2.X, platemo.p2.X)  # the same state before the switch
+    p2_before, p3_before, p1 = platemo.p2, platemo.p3, platemo.p1
+    fixed._switch_stage()
+    platemo._switch_stage()
+    union = _Set.join(p1, p2_before, p3_before)
+    p2, fit2, p3, fit3 = even_search(union, p1.F[p1.cv == 0.0], 20, 0.2,
+                                     float(union.cv.max()), True)
+    # tmopt: P2/P3 with their own fitness; CMOES.m: the old P2/P3 with the new fitness
+    assert np.array_equal(fixed.p2.X, p2.X) and np.array_equal(fixed._fit2, fit2)
+    assert platemo.p2 is p2_before and platemo.p3 is p3_before
+    assert np.array_equal(platemo._fit2, fit2) and np.array_equal(platemo._fit3, fit3)
+    from tmopt.algorithms.operators.survival import spea2_fitness
+    # the fitness is another population's: not P2's own (tournaments read it by position)
+    assert len(platemo._fit2) <= len(platemo.p2)
+    assert not np.array_equal(platemo._fit2, spea2_fitness(p2_before.F)[: len(fit2)])
+    own = spea2_fitness(p1.F, p1.cv)
+    assert np.array_equal(fixed._fit1, own)
+    assert np.array_equal(platemo._fit1, np.sort(own)) and not np.array_equal(own, np.sort(own))
+
+
+def test_stale_feasible_mask_bounds_the_region_by_the_old_p1s_places(monkeypatch):
+    import tmopt.algorithms.cmoes as cmoes
+
+    seen = []
+    real = cmoes.even_search
+    monkeypatch.setattr(cmoes, "even_search",
+                        lambda pop, F_feasible, *a: seen.append(F_feasible) or real(
+                            pop, F_feasible, *a))
+    for stale in (False, True):
+        alg = _at_the_switch(stale_feasible_mask=stale)
+        alg._switch_stage()
+        old_mask = alg.p1.cv == 0.0
+        problem = alg.problem
+        off_X = alg._stage_two_offspring()
+        F, G = problem.evaluate(off_X)
+        alg._stage_two_selection(_Set(off_X, F, G))
+        new_p1 = alg.p1
+        expected = new_p1.F[old_mask] if stale else new_p1.F[new_p1.cv == 0.0]
+        assert np.array_equal(seen[-1], expected)
+    # the masks differ on this run: PlatEMO's region is bounded by other designs
+    assert not np.array_equal(old_mask, new_p1.cv == 0.0)
+
+
+def test_reference_platemo_sets_both_and_raw_distances_and_runs():
+    from tmopt.algorithms.cmoes import PLATEMO_SETTINGS
+    alg = CMOES(pop_size=20, reference="platemo")
+    assert {k: getattr(alg, k) for k in PLATEMO_SETTINGS} == PLATEMO_SETTINGS
+    drive_to_budget(alg, PymooBenchmark("mw3", n_var=6), budget=600)
+    assert alg.stage == 2
+    with pytest.raises(AlgorithmConfigError, match="cmoes: reference must be one of "
+                                                   "tmopt, platemo, got 'x'"):
+        CMOES(reference="x")

@@ -15,6 +15,7 @@ from tmopt.algorithms.ctsea import (
     uniform_points,
     update_ref_points,
 )
+from tmopt.algorithms.mgsaea import AlgorithmStateError
 from tmopt.problems.suites import PymooBenchmark
 
 from .contract import algorithm_from_yaml, assert_seed_decides_the_archive, run
@@ -135,3 +136,75 @@ def test_reference_platemo_mates_as_platemos_matingselection1():
     with pytest.raises(AlgorithmConfigError, match="reference must be one of tmopt, "
                                                    "platemo, got 'x'"):
         CTSEA(reference="x")
+
+
+# ---- reference=platemo: each PlatEMO behaviour alone (docs/algorithms-mgsaea.md) -----------
+def test_nbi_weights_are_platemos_uniformpoint_with_its_inner_layer():
+    # UniformPoint.m (NBI), N = 100, M = 5: H1 = 4 (C(8,4) = 70 <= 100 < C(9,4)), and as
+    # H1 < M an inner layer H2 = 2 (70 + C(6,4) = 85 <= 100 < 70 + C(7,4)) of w/2 + 1/(2M)
+    outer = uniform_points(100, 5)
+    both = uniform_points(100, 5, inner_layer=True)
+    assert (len(outer), len(both)) == (70, 85)
+    inner = both[70:]
+    assert np.allclose(inner.sum(axis=1), 1.0) and inner.min() >= 0.1 - 1e-12
+    assert np.allclose(np.sort((inner - 0.1) * 2 * 2, axis=0),  # back to H2 = 2 partitions
+                       np.sort(uniform_points(15, 5) * 2, axis=0))
+    assert outer.min() == 0.0 and both.min() == 1e-6  # PlatEMO floors every weight
+    assert len(uniform_points(100, 2, inner_layer=True)) == 100  # H1 >= M: one layer
+    assert CTSEA(weights="nbi").weights == "nbi"
+
+
+def test_collapsed_range_upper_bound_one_as_platemo():
+    F = np.array([[2.0, 0.0], [2.0, 1.0], [2.0, 0.5]])  # f1 collapsed at 2 > 1
+    ref, bounds = uniform_points(2, 2), np.array([[2.0, 0.0], [3.0, 1.0]])
+    _, fixed = armoea_selection(F, ref, bounds, 3)
+    _, platemo = armoea_selection(F, ref, bounds, 3, collapsed_to_one=True)
+    assert fixed[1, 0] == 3.0 and platemo[1, 0] == 1.0  # PlatEMO: upper bound below ideal
+    assert fixed[1, 1] == platemo[1, 1] == 1.0
+
+
+def _sets(X, cv):
+    X = np.asarray(X, dtype=float)
+    return {"X": X, "F": X.copy(), "G": np.asarray(cv, dtype=float)[:, None]}
+
+
+def test_archive_copies_reappends_the_feasible_population_as_platemo():
+    # UpdateArchive(Archive, [Population, Offspring]) appends every feasible member again
+    elite = _sets([[0.1, 0.9]], [0.0])
+    pop = _sets([[0.1, 0.9], [0.9, 0.1], [0.5, 0.5]], [0.0, 0.0, 1.0])
+    fixed, platemo = CTSEA(pop_size=4), CTSEA(pop_size=4, archive_copies=True)
+    kept = fixed._update_elite(elite, pop)["X"]
+    copied = platemo._update_elite(elite, pop)["X"]
+    assert len(np.unique(kept, axis=0)) == len(kept) == 3  # A, B, then C by violation
+    assert len(copied) == 4 and (copied == [0.1, 0.9]).all(axis=1).sum() == 2  # A twice
+
+
+def test_unfilled_initial_elite_as_platemo_and_its_empty_swap():
+    problem = PymooBenchmark("mw3", n_var=6)
+    alg = CTSEA(pop_size=20, fill_initial_elite=False)
+    res = run(alg, problem, budget=20)
+    feasible = (res.archive.G <= 0).all(axis=1).sum()
+    assert len(alg.elite["X"]) == feasible < 20  # CTSEA.m: Archive = Population(CV == 0)
+    assert len(run(CTSEA(pop_size=20), problem, budget=20).archive) == 20
+    filled = CTSEA(pop_size=20)
+    run(filled, problem, budget=20)
+    assert len(filled.elite["X"]) == 20
+    # no feasible initial design and the swap straight after: PlatEMO's population is empty
+    alg.elite = {k: v[:0] for k, v in alg.elite.items()}
+    with pytest.raises(AlgorithmStateError, match="ctsea: stage two starts with an empty "
+                                                  "population"):
+        alg._infill()
+
+
+def test_reference_platemo_sets_every_quirk_and_runs():
+    alg = CTSEA(pop_size=20, reference="platemo")
+    assert (alg.random_mating, alg.archive_copies, alg.fill_initial_elite,
+            alg.collapsed_range, alg.weights, alg.normalise) == (True, True, False, "one",
+                                                                  "nbi", False)
+    from tmopt.algorithms.ctsea import PLATEMO_SETTINGS
+    assert {k: getattr(alg, k) for k in PLATEMO_SETTINGS} == PLATEMO_SETTINGS
+    res = run(alg, PymooBenchmark("mw3", n_var=6), budget=200)
+    assert len(res.archive) == 200 and alg.stage == 2
+    with pytest.raises(AlgorithmConfigError, match="ctsea: weights must be one of "
+                                                   "das_dennis, nbi, got 'x'"):
+        CTSEA(weights="x")

@@ -164,3 +164,67 @@ def test_cli_run(tmp_path):
                           "surrogate=gp", "budget=53", "algorithm.wmax=2")
     assert metrics["algorithm"] == "drlsaea" and metrics["n_evals"] == 53  # 43 + 2 x 5
     assert sum(metrics["algorithm_summary"]["actions"].values()) == 2
+
+
+# ---- reference=platemo: each PlatEMO behaviour alone (docs/algorithms-frontier.md) ---------
+def test_configured_scaling_is_fixed_by_five_uniform_draws_and_saturates():
+    agent = _agent(configured=True, seed=3)
+    rng = np.random.default_rng(3)
+    draws = rng.random((5, 4))  # DDQN.m: configure(net, rand(4, 5), -rand(3, 5))
+    targets = -rng.random((5, 3))
+    lo, hi = draws.min(axis=0), draws.max(axis=0)
+    s = np.array([[300.0, 500.0, 2.0, 0.5]])
+    np.testing.assert_allclose(agent._scaled(s).numpy(), 2 * (s - lo) / (hi - lo) - 1)
+    np.testing.assert_array_equal(agent.out_lo, targets.min(axis=0))
+    np.testing.assert_array_equal(agent.out_hi, targets.max(axis=0))
+    with torch.no_grad():  # the network's [-1, 1] output read in the configured range
+        raw = agent.agent(agent._scaled(s))[0].numpy()
+    np.testing.assert_allclose(agent.q_values(s[0]),
+                               targets.min(axis=0) + (raw + 1) * np.ptp(targets, axis=0) / 2)
+    # raw sums in the hundreds saturate every tanh unit: two very different states get
+    # the same Q-values; the buffer's min-max scaling tells them apart
+    other = np.array([[600.0, 900.0, 4.0, 0.5]])
+    q1, q2 = agent.q_values(s[0]), agent.q_values(other[0])
+    np.testing.assert_allclose(q1, q2, atol=1e-9)
+    buffered = _agent(seed=3)
+    buffered.store(s[0], 0, 0.0, other[0])
+    assert np.abs(buffered.q_values(s[0]) - buffered.q_values(other[0])).max() > 1e-3
+
+
+def test_same_budget_share_gives_both_states_the_current_share():
+    for same in (False, True):
+        alg = small(same_budget_share=same)
+        run(alg, TwoGroupProblem(), budget=20 + 6 * 5)
+        S, S1 = alg.agent.S, alg.agent.S1
+        if same:  # GenerateSample.m: Problem.FE / Problem.maxFE for both
+            np.testing.assert_array_equal(S[:, 3], S1[:, 3])
+        else:
+            np.testing.assert_allclose(S1[:, 3] - S[:, 3], 5 / 50)
+        np.testing.assert_array_equal(S[1:, :3], S1[:-1, :3])  # the states chain
+
+
+def test_per_set_reward_uses_each_sets_lower_bound_and_nan_for_no_feasible():
+    ok = np.array([[-1.0]])
+    F0, F1 = np.array([[-1.0, 1.0]]), np.array([[0.0, 0.0]])
+    # shared: lower (-1, 0), upper (0, 1): HV 1.1*0.1 -> 0.1*1.1, no change
+    assert reward(F0, ok, F1, ok) == pytest.approx(0.0)
+    # per set (PlatEMO's HV): F0 lower (-1, 0): 1.1 x 0.1 = 0.11; F1 lower (0, 0) and
+    # upper (0, 1): f1 range collapses (1e-12), 0 -> 0 < 1.1, so 1.1 x 1.1 = 1.21
+    assert reward(F0, ok, F1, ok, per_set=True) == pytest.approx((1.21 - 0.11) / 0.11)
+    # losing every feasible design: -1 in the shared form, NaN -> 0 in PlatEMO's
+    bad = np.array([[1.0]])
+    assert reward(F1, ok, F1, bad) == pytest.approx(-1.0 + 0.0)
+    assert reward(F1, ok, F1, bad, per_set=True) == pytest.approx(0.0)
+
+
+def test_reference_platemo_sets_the_agents_and_mgsaeas_settings():
+    from tmopt.algorithms.drlsaea import PLATEMO_SETTINGS
+    from tmopt.algorithms.mgsaea import PLATEMO_SETTINGS as MGSAEA_SETTINGS
+    alg = small(reference="platemo")
+    assert {k: getattr(alg, k) for k in PLATEMO_SETTINGS} == PLATEMO_SETTINGS
+    assert {k: getattr(alg, k) for k in MGSAEA_SETTINGS} == MGSAEA_SETTINGS
+    run(alg, TwoGroupProblem(), budget=20 + 4 * 5)
+    assert alg.agent.input_scaling == "configured"
+    with pytest.raises(AlgorithmConfigError, match="drlsaea: input_scaling must be one of "
+                                                   "buffer, configured, got 'x'"):
+        DRLSAEA(input_scaling="x")

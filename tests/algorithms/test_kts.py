@@ -19,6 +19,7 @@ from tmopt.algorithms.kts import (
     pure_diversity,
 )
 from tmopt.algorithms.operators.survival import farthest_points
+from tmopt.evaluation.evaluator import Evaluator
 from tmopt.problems.suites import SUITE_PROBLEMS, PymooBenchmark
 
 from .contract import (
@@ -167,3 +168,129 @@ def test_cli_run(tmp_path):
                           "surrogate=gp", "budget=30", "algorithm.pop_size=10",
                           "algorithm.wmax=2")
     assert metrics["algorithm"] == "kts" and metrics["n_evals"] == 30
+
+
+# ---- reference=platemo: each PlatEMO behaviour alone (docs/algorithms-frontier.md) ---------
+def _update_ca_as_platemo(F: np.ndarray, n: int, kappa: float) -> np.ndarray:
+    """UpdateCA.m restated: fitness with each column's scale C(j); each deletion adds back
+    exp(-I(x, :) / C(x) / kappa), the deleted design's scale for every column."""
+    Fn = (F - F.min(axis=0)) / (F.max(axis=0) - F.min(axis=0))
+    N = len(F)
+    I = np.array([[np.max(Fn[i] - Fn[j]) for j in range(N)] for i in range(N)])
+    C = np.abs(I).max(axis=0)
+    fit = (-np.exp(-I / C[None, :] / kappa)).sum(axis=0) + 1.0
+    choose = list(range(N))
+    while len(choose) > n:
+        x = int(np.argmin(fit[choose]))
+        fit = fit + np.exp(-I[choose[x], :] / C[choose[x]] / kappa)
+        del choose[x]
+    return np.array(choose)
+
+
+def test_mixed_scale_deletion_is_updateca_m():
+    differ = 0
+    for seed in range(40, 60):  # a cluster and a few outliers: the columns' scales differ
+        rng = np.random.default_rng(seed)
+        F = np.vstack([rng.random((25, 2)) * 0.1, rng.random((5, 2))])
+        platemo = eps_truncation(F, 10, 0.05, mixed_scale=True)
+        assert np.array_equal(platemo, _update_ca_as_platemo(F, 10, 0.05))
+        differ += not np.array_equal(platemo, eps_truncation(F, 10, 0.05))
+    assert differ > 0  # the fix keeps other designs on some such sets (seeds 42, 45 here)
+
+
+def test_platemo_da_updates_raw_extremes_and_random_index_prediction():
+    from tmopt.algorithms.kts import platemo_diversity_archive
+    t = np.linspace(0.0, 1.0, 40)
+    F = np.column_stack([t, 1000.0 * (1.0 - t) ** 2])  # a front, f2 in other units
+    # real designs (UpdateDA.m): extremes, then farthest on RAW objectives: nearly all
+    # picks go where f2 changes fastest, unlike on normalised objectives
+    raw = platemo_diversity_archive(F, 6, 0.5, np.random.default_rng(0), predicted=False)
+    ours = diversity_archive(F, 6, 0.5)
+    assert {0, 39} <= set(raw) and {0, 39} <= set(ours)
+    assert np.max(t[raw][(t[raw] > 0) & (t[raw] < 1)]) < np.max(t[ours][ours < 39])
+    # predictions (K_UpdateDA.m): the row at a random objective index, normalised over
+    # every row before the non-dominated filter (here a dominated far point stretches f1)
+    Fp = np.vstack([F, [[50.0, 2000.0]]])
+    ours = diversity_archive(Fp, 6, 0.5)
+    differ = 0
+    for seed in range(4):
+        picked = platemo_diversity_archive(Fp, 6, 0.5, np.random.default_rng(seed),
+                                           predicted=True)
+        first = np.random.default_rng(seed).permutation(2)[0]
+        Fn = (Fp - Fp.min(axis=0)) / (Fp.max(axis=0) - Fp.min(axis=0))
+        chosen = np.zeros(40, dtype=bool)
+        chosen[first] = True
+        expected = farthest_points(lp_distances(Fn[:40], Fn[:40], 0.5), chosen, 6)
+        assert np.array_equal(picked, np.flatnonzero(expected)) and first in picked
+        differ += not np.array_equal(picked, ours)
+    assert differ == 4
+
+
+def test_paired_convergence_test_is_cal_convergence_m():
+    from tmopt.algorithms.kts import paired_signed_rank_converges
+    d_da = np.linspace(1.0, 2.0, 10)
+    d_ca = d_da - np.linspace(0.05, 0.5, 10)  # CA closer in every pair: exact p = 2/2^10
+    assert paired_signed_rank_converges(d_ca, d_da)
+    assert not paired_signed_rank_converges(d_da, d_ca)  # significant, but DA closer
+    assert not paired_signed_rank_converges(d_da[:5], d_da[:5])  # all ties: p = 1
+    alg, fixed = small(paired_convergence_test=True), small()
+    for a in (alg, fixed):
+        a.setup(PymooBenchmark("mw3", n_var=6), budget=100, seed=0)
+    ca = Designs.real(np.zeros((20, 6)), np.column_stack([np.linspace(0, .1, 20)] * 2),
+                      np.zeros((20, 1)))
+    da = Designs.real(np.zeros((30, 6)), np.column_stack([np.linspace(.5, 1, 30)] * 2),
+                      np.zeros((30, 1)))
+    # CA is clearly closer to the ideal point; PlatEMO decides "not converging" because
+    # the two sets differ in size
+    assert fixed._ca_converges_better(ca, da)
+    assert not alg._ca_converges_better(ca, da)
+    assert alg._ca_converges_better(ca, da.take(np.arange(20)))
+
+
+def test_skip_evaluated_false_resends_in_constrained_mode_and_keeps_a1_unique():
+    problem = PymooBenchmark("mw3", n_var=6)
+    for skip in (True, False):
+        alg = small(tau=1.0, phi=-1.0, skip_evaluated=skip)  # constrained mode only
+        alg.setup(problem, budget=100, seed=0)
+        ev = Evaluator(problem, 100)
+        alg.tell(ev.evaluate(alg.ask()))  # the initial sample
+        cp2 = alg._p2  # real designs, all evaluated
+        alg.mode = CONSTRAINED
+        X = alg._sample(alg._ca, alg._da, cp2, alg._p1)
+        seen = alg._already_seen(X)
+        if skip:
+            assert not seen.any() and alg.sampling == "random"
+        else:  # KTS.m: KCCMO_sampling may pick designs already evaluated
+            assert seen.all() and alg.sampling == "clusters"
+            before = len(alg._all)
+            alg.tell(ev.evaluate(X))
+            assert len(alg._all) == before  # KTS.m: A1 gets no copy ...
+            ca = alg._ca.X
+            assert len(np.unique(ca, axis=0)) < len(ca)  # ... CA does
+
+
+def test_kmeans_on_raw_predictions_as_platemo(monkeypatch):
+    import tmopt.algorithms.kts as kts
+    seen = []
+    real = kts.kmeans2
+    monkeypatch.setattr(kts, "kmeans2", lambda data, *a, **k: seen.append(data) or real(
+        data, *a, **k))
+    cp2 = Designs.real(np.random.default_rng(0).random((20, 6)),
+                       np.random.default_rng(1).random((20, 2)) * [1.0, 300.0],
+                       -np.ones((20, 1)))
+    for raw in (False, True):
+        alg = small(kmeans_normalised=not raw)
+        drive_to_budget(alg, PymooBenchmark("mw3", n_var=6), 12)
+        alg._constrained_sampling(cp2)
+        assert seen[-1].max() > 1.0 if raw else seen[-1].max() <= 1.0
+
+
+def test_reference_platemo_sets_every_deviation_and_runs():
+    from tmopt.algorithms.kts import PLATEMO_SETTINGS
+    alg = small(reference="platemo")
+    assert {k: getattr(alg, k) for k in PLATEMO_SETTINGS} == PLATEMO_SETTINGS
+    ev = drive_to_budget(alg, PymooBenchmark("mw3", n_var=6), 12 + 30)
+    assert len(ev.archive.data.X) == 42
+    with pytest.raises(AlgorithmConfigError, match="kts: da_update must be one of "
+                                                   "tmopt, platemo, got 'x'"):
+        KTS(da_update="x")

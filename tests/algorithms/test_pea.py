@@ -17,6 +17,7 @@ from tmopt.algorithms.pea import (
     cppd_matrix,
     feasible_probability,
 )
+from tmopt.evaluation.evaluator import Evaluator
 from tmopt.problems.suites import SUITE_PROBLEMS, PymooBenchmark
 
 from .contract import (
@@ -116,3 +117,57 @@ def test_cli_run(tmp_path):
                           "surrogate=gp", "budget=30", "algorithm.pop_size=10",
                           "algorithm.wmax=2")
     assert metrics["algorithm"] == "pea" and metrics["n_evals"] == 30
+
+
+# ---- reference=platemo: each PlatEMO behaviour alone (docs/algorithms-frontier.md) ---------
+def test_nan_ties_make_a_zero_variance_tie_mutually_non_dominated():
+    # rows 0 and 1 tie exactly in f1 (no variance), row 0 is better in f2: Pareto
+    # dominance; NDSort_CPPD.m gets 0/0 = NaN in f1, and neither dominates
+    F = np.array([[1.0, 0.0], [1.0, 1.0], [2.0, 2.0]])
+    var = np.zeros_like(F)
+    G, gv = np.zeros((3, 0)), np.zeros((3, 0))
+    fixed = cppd_matrix(F, var, G, gv)
+    platemo = cppd_matrix(F, var, G, gv, nan_ties=True)
+    assert fixed[0, 1] and not platemo[0, 1] and not platemo[1, 0]
+    assert platemo[0, 2] and platemo[1, 2]  # no tie with row 2: unchanged
+    assert np.array_equal(cppd_fronts(platemo, 3), [1, 1, 2])
+    assert np.array_equal(cppd_fronts(fixed, 3), [1, 2, 3])
+    # with variance the tie is a probability of 1/2 each way in both
+    assert np.array_equal(cppd_matrix(F, var + 0.1, G, gv),
+                          cppd_matrix(F, var + 0.1, G, gv, nan_ties=True))
+
+
+def test_no_random_fallback_searches_again_as_platemo(monkeypatch):
+    problem = PymooBenchmark("mw3", n_var=6)
+    for fallback in (True, False):
+        alg = small(random_fallback=fallback)
+        alg.setup(problem, budget=100, seed=0)
+        ev = Evaluator(problem, 100)
+        alg.tell(ev.evaluate(alg.ask()))
+        real_search, calls = alg._search, []
+
+        def search(real_search=real_search, calls=calls, alg=alg):
+            out = real_search()
+            calls.append(1)
+            if len(calls) < 3:  # the first two searches find only evaluated designs
+                X = alg._X[: len(out[0])]
+                return (X, *out[1:])
+            return out
+        monkeypatch.setattr(alg, "_search", search)
+        X = alg.ask()
+        if fallback:
+            assert len(calls) == 1 and alg.summary()["random_batches"] == 1
+        else:  # PEA.m: nothing evaluated, search again from the same models
+            assert len(calls) == 3 and alg.summary() == {"random_batches": 0,
+                                                         "repeated_searches": 2}
+        assert 1 <= len(X) <= alg.mu
+
+
+def test_reference_platemo_sets_every_deviation_and_runs():
+    from tmopt.algorithms.pea import PLATEMO_SETTINGS
+    alg = small(reference="platemo")
+    assert {k: getattr(alg, k) for k in PLATEMO_SETTINGS} == PLATEMO_SETTINGS
+    drive_to_budget(alg, PymooBenchmark("mw3", n_var=6), 12 + 20)
+    with pytest.raises(AlgorithmConfigError, match="pea: reference must be one of "
+                                                   "tmopt, platemo, got 'x'"):
+        PEA(reference="x")

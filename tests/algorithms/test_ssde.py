@@ -191,3 +191,26 @@ def test_cli_run(tmp_path):
     metrics = cli_metrics(tmp_path, "problem=mw3", "algorithm=ssde", "budget=60",
                           "algorithm.pop_size=20")
     assert metrics["algorithm"] == "ssde" and metrics["n_evals"] == 60
+
+
+def test_reseed_first_nodes_takes_platemos_parents():
+    # Training.m draws k in 1..(number of winners) and averages W(k, :): the first nodes of
+    # the map, here idle ones, instead of the winners 3 and 4
+    def reseeded(first: bool) -> np.ndarray:
+        m = SelfOrganisingMap(5, 2, 1, eta0=0.2, sigma0=0.5, epochs=1,
+                              rng=np.random.default_rng(0), reseed_first_nodes=first)
+        m.W = np.column_stack([np.full((5, 2), 0.5), [1.0, 2.0, 3.0, 50.0, 60.0]])
+        m.won[:] = [False, False, False, True, True]
+        m._reseed_idle_nodes()
+        return m.W[:3, 2]
+
+    fixed, platemo = reseeded(False), reseeded(True)
+    assert np.all((fixed > 49.9) & (fixed < 60.1))    # means of winners 50 and 60
+    assert np.all((platemo > 0.9) & (platemo < 2.1))  # means of nodes 0 and 1 (1 and 2)
+    alg = SSDE(pop_size=10, reference="platemo")
+    assert alg.reseed_first_nodes
+    res = run(alg, PymooBenchmark("mw3", n_var=4), budget=60)
+    assert alg.som.reseed_first_nodes and len(res.archive) <= 60
+    with pytest.raises(AlgorithmConfigError, match="ssde: reference must be one of "
+                                                   "tmopt, platemo, got 'x'"):
+        SSDE(reference="x")

@@ -297,3 +297,22 @@ def test_table3_headlines_heldout_m_keeps_the_search_draw_and_flags_the_floor(tm
     assert "1e-11 ± 0 ‡2" in draw  # two NSGA-II runs below the floor of the final accuracy
     paper = (out / "table3_vs_paper.md").read_text()
     assert "ours, held-out (mean of 3)" in paper and "ours, search draw (mean of 3)" in paper
+
+
+def test_a_parameter_added_later_reads_as_its_default_in_older_runs(tmp_path):
+    # problem.information_constraints was added hash-neutral with default "noise_free": a run
+    # made before it (no key in config.yaml) ran with that default, so it is the same setting
+    # as a newer run that spells the default out, and a different one from "noise_seed".
+    old = _run(tmp_path, "old", {"seed": 0})
+    for name, value in (("new", "noise_free"), ("other", "noise_seed")):
+        path = _run(tmp_path, name, {"seed": 1, "problem.information_constraints": value},
+                    seed=1)
+        config = json.loads((path / "config.yaml").read_text())
+        config["problem"]["information_constraints"] = value
+        (path / "config.yaml").write_text(json.dumps(config))
+    assert "information_constraints" not in json.loads((old / "config.yaml").read_text())["problem"]
+    runs = {r.name: r for r in discover_runs(tmp_path)}
+    key = "problem.information_constraints"
+    assert runs["old"].value(key) == runs["new"].value(key) == "noise_free"
+    assert runs["other"].value(key) == "noise_seed"
+    assert runs["old"].value("problem.no_such_parameter") == ""  # not a parameter: absent

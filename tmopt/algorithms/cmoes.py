@@ -43,12 +43,15 @@ Stage two (the even search):
     * each population breeds its own offspring (|P1| + |P2| + |P3| <= 3N evaluations), P2
       by a tournament on its SPEA2 fitness and P3 by a tournament on CV.
 
-Deviations from the PlatEMO code (docs/algorithms-baselines.md, "CMOES"): at the stage
-switch PlatEMO keeps P2/P3 but takes their tournament fitness from a fresh even search
-(and P1's fitness sorted apart from P1), so the first stage-two tournaments read
-misaligned fitness; here P2/P3 and their fitness come from that even search together,
-and P1's fitness stays aligned. The promising region is drawn from the feasible members
-of the P1 just selected (PlatEMO indexes the new P1 with the old P1's feasibility mask).
+Deviations from the PlatEMO code (docs/algorithms-baselines.md, "CMOES"), each a
+constructor argument: at the stage switch PlatEMO keeps P2/P3 but takes their tournament
+fitness from a fresh even search (and P1's fitness sorted apart from P1), so the first
+stage-two tournaments read misaligned fitness; here P2/P3 and their fitness come from
+that even search together, and P1's fitness stays aligned (``switch_keeps_populations=
+True`` restores PlatEMO). The promising region is drawn from the feasible members of the
+P1 just selected; PlatEMO indexes the new P1 with the old P1's feasibility mask
+(``stale_feasible_mask=True``). ``reference="platemo"`` sets both and ``normalise=False``
+(:data:`PLATEMO_SETTINGS`).
 """
 
 from __future__ import annotations
@@ -60,6 +63,7 @@ from math import ceil
 import numpy as np
 
 from tmopt.algorithms.base import Algorithm, AlgorithmConfigError, check_number
+from tmopt.algorithms.mgsaea import AlgorithmStateError
 from tmopt.algorithms.operators.survival import (
     environmental_selection,
     lexicographic_rank,
@@ -75,6 +79,12 @@ from tmopt.problems.base import ExpensiveProblem
 log = logging.getLogger(__name__)
 
 OPERATORS = ("ga", "de")
+#: ``reference``: "tmopt" (the fixes in the module docstring) or "platemo" (CMOES.m's
+#: behaviour for each, :data:`PLATEMO_SETTINGS`).
+REFERENCES = ("tmopt", "platemo")
+#: What ``reference="platemo"`` sets (each can also be set alone to measure one fix).
+PLATEMO_SETTINGS = {"switch_keeps_populations": True, "stale_feasible_mask": True,
+                    "normalise": False}
 
 
 @dataclass
@@ -145,11 +155,21 @@ class CMOES(Algorithm):
 
     def __init__(self, *, pop_size: int = 100, operator: str = "ga", stage_ratio: float = 0.2,
                  crossover_eta: float = 20.0, mutation_eta: float = 20.0,
-                 normalise: bool = True) -> None:
+                 normalise: bool = True, switch_keeps_populations: bool = False,
+                 stale_feasible_mask: bool = False, reference: str = "tmopt") -> None:
         super().__init__(pop_size=pop_size)
         if operator not in OPERATORS:
             raise AlgorithmConfigError(f"algorithm {self.name}: operator must be one of "
                                        f"{OPERATORS}, got {operator!r}")
+        if reference not in REFERENCES:
+            raise AlgorithmConfigError(f"algorithm {self.name}: reference must be one of "
+                                       f"{', '.join(REFERENCES)}, got {reference!r}")
+        self.reference = reference
+        if reference == "platemo":  # every documented fix undone (PLATEMO_SETTINGS)
+            switch_keeps_populations = stale_feasible_mask = True
+            normalise = False
+        self.switch_keeps_populations = bool(switch_keeps_populations)
+        self.stale_feasible_mask = bool(stale_feasible_mask)
         self.operator = operator
         self.stage_ratio = check_number(self.name, "stage_ratio", stage_ratio, 0.0, 1.0)
         self.crossover_eta = check_number(self.name, "crossover_eta", crossover_eta, 0.0)
@@ -199,14 +219,27 @@ class CMOES(Algorithm):
                           self._vary(self.p2.X, mates2, both=False)])
 
     def _switch_stage(self) -> None:
-        """First even search: P2/P3 and their fitness from [P1, P2, P3] (see module doc)."""
+        """First even search: P2/P3 and their fitness from [P1, P2, P3] (see module doc).
+
+        ``switch_keeps_populations`` (CMOES.m): only the fitness comes from the even search;
+        P2 and P3 stay as stage one left them, and P1's fitness is sorted (as
+        EnvironmentalSelection.m returns it) while P1 is not, so tournaments read the
+        fitness of other members (of the first len(fitness) members of P2 and P3)."""
         self.stage = 2
         union = _Set.join(self.p1, self.p2, self.p3)
         self._max_cv = float(union.cv.max())
-        self.p2, self._fit2, self.p3, self._fit3 = even_search(
+        p2, self._fit2, p3, self._fit3 = even_search(
             union, self._feasible_front(), self.pop_size, self._tau, self._max_cv,
             self.normalise)
         self._fit1 = spea2_fitness(self.p1.F, self.p1.cv, normalise=self.normalise)
+        if self.switch_keeps_populations:
+            self._fit1 = np.sort(self._fit1)
+            for pop, fit in ((self.p2, self._fit2), (self.p3, self._fit3)):
+                if len(fit) > len(pop):  # MATLAB would index past P2/P3's end
+                    raise AlgorithmStateError(f"algorithm {self.name}: {len(fit)} fitness "
+                                              f"values for {len(pop)} members at the switch")
+        else:
+            self.p2, self.p3 = p2, p3
         log.info("%s: even search starts after %d evaluations", self.name, self.n_evals)
 
     def _stage_two_offspring(self) -> np.ndarray:
@@ -263,14 +296,21 @@ class CMOES(Algorithm):
 
     def _stage_two_selection(self, off: _Set) -> None:
         n = self.pop_size
+        old_feasible = self.p1.cv == 0.0
         union = _Set.join(self.p1, self.p2, self.p3, off)
         fitness = spea2_fitness(union.F, union.cv, normalise=self.normalise)
         keep = environmental_selection(fitness, union.F, n, normalise=self.normalise)
         self.p1, self._fit1 = union.take(keep), fitness[keep]
         self.p2, self._fit2, self.p3, self._fit3 = even_search(
-            union, self._feasible_front(), n, self._tau, self._max_cv, self.normalise)
+            union, self._feasible_front(old_feasible if self.stale_feasible_mask else None),
+            n, self._tau, self._max_cv, self.normalise)
 
-    def _feasible_front(self) -> np.ndarray:
-        """Objectives of P1's feasible members: they bound the promising region."""
-        return self.p1.F[self.p1.cv == 0.0]
+    def _feasible_front(self, mask: np.ndarray | None = None) -> np.ndarray:
+        """Objectives of P1's feasible members: they bound the promising region. ``mask``:
+        PlatEMO's ``Population1(CV1 == 0)`` with CV1 of the P1 before the selection
+        (``stale_feasible_mask``): the members of the new P1 at the old feasible places."""
+        if mask is None:
+            return self.p1.F[self.p1.cv == 0.0]
+        m = min(len(mask), len(self.p1))
+        return self.p1.F[:m][mask[:m]]
 

@@ -40,8 +40,12 @@ Quirks of the reference fixed here (docs/algorithms-mgsaea.md, "C-TSEA"):
       value exceeds 1); here it becomes ideal + 1.
     * AR-MOEA's ``UniformPoint`` adds an inner layer for many objectives; here one
       Das-Dennis layer (pymoo) with at most N points is used.
-``random_mating=True`` restores PlatEMO's uniform stage-one mating; ``reference="platemo"``
-sets it and ``normalise=False`` (the other quirks above are not reproduced).
+Each quirk is a constructor argument (defaults: the fixes; docs/algorithms-mgsaea.md,
+"PlatEMO's behaviour as a setting"): ``random_mating=True`` (quirk 1),
+``archive_copies=True`` (2), ``fill_initial_elite=False`` (3), ``collapsed_range="one"``
+(4), ``weights="nbi"`` (5: PlatEMO's ``UniformPoint``, two layers and the 1e-6 floor);
+``normalise=False`` gives PlatEMO's raw SPEA2 distances. ``reference="platemo"`` sets all
+six (:data:`PLATEMO_SETTINGS`).
 """
 
 from __future__ import annotations
@@ -53,21 +57,50 @@ from pymoo.util.ref_dirs import get_reference_directions
 from scipy.spatial.distance import cdist
 
 from tmopt.algorithms.base import Algorithm, AlgorithmConfigError
+from tmopt.algorithms.mgsaea import AlgorithmStateError
 from tmopt.algorithms.operators.survival import environmental_selection, spea2_fitness
 from tmopt.algorithms.operators.variation import ga_offspring, tournament
 from tmopt.evaluation.evaluator import EvaluatedBatch
 from tmopt.metrics.indicators import constraint_violation
 
+#: ``reference``: "tmopt" (the fixes in the module docstring) or "platemo" (C-TSEA.m's
+#: behaviour for each of them, :data:`PLATEMO_SETTINGS`).
+REFERENCES = ("tmopt", "platemo")
+#: What ``reference="platemo"`` sets (each can also be set alone to measure one fix).
+PLATEMO_SETTINGS = {"random_mating": True, "archive_copies": True, "fill_initial_elite": False,
+                    "collapsed_range": "one", "weights": "nbi", "normalise": False}
+#: Upper bound of the normalisation where an objective's range collapses (< 1e-6):
+#: "ideal_plus_one" (the fix) or "one" (AR-MOEA's and C-TSEA's ``Range(2, ...) = 1``).
+COLLAPSED_RANGES = ("ideal_plus_one", "one")
+#: Reference weights: "das_dennis" (one layer, pymoo) or "nbi" (PlatEMO's
+#: ``UniformPoint``: an inner layer when the outer one has fewer than M partitions,
+#: every weight floored at 1e-6).
+WEIGHTS = ("das_dennis", "nbi")
+
 
 # ---- AR-MOEA parts (no library offers them) --------------------------------------------------
-def uniform_points(n: int, m: int) -> np.ndarray:
-    """Das-Dennis weights on the unit simplex: the most partitions with at most ``n`` points."""
+def uniform_points(n: int, m: int, inner_layer: bool = False) -> np.ndarray:
+    """Das-Dennis weights on the unit simplex: the most partitions H1 with at most ``n``
+    points. ``inner_layer``: PlatEMO's ``UniformPoint`` (NBI), which for H1 < m adds a
+    second layer of H2 partitions (the most that keep the total <= ``n``) shrunk to
+    w / 2 + 1 / (2m) and floors every weight at 1e-6 (Das & Dennis, SIAM J. Optim. 8(3),
+    1998; the two layers: Deb & Jain, IEEE TEVC 18(4), 2014, Sec. V)."""
     if m == 1:
         return np.ones((1, 1))
     h = 1
     while _n_simplex_points(h + 1, m) <= n:
         h += 1
-    return get_reference_directions("das-dennis", m, n_partitions=h)
+    W = get_reference_directions("das-dennis", m, n_partitions=h)
+    if not inner_layer:
+        return W
+    if h < m:
+        h2 = 0
+        while _n_simplex_points(h, m) + _n_simplex_points(h2 + 1, m) <= n:
+            h2 += 1
+        if h2 > 0:
+            inner = get_reference_directions("das-dennis", m, n_partitions=h2)
+            W = np.vstack([W, inner / 2.0 + 1.0 / (2.0 * m)])
+    return np.maximum(W, 1e-6)
 
 
 def _n_simplex_points(h: int, m: int) -> int:
@@ -180,9 +213,11 @@ def last_front_selection(dist: np.ndarray, k: int) -> np.ndarray:
     return remain
 
 
-def armoea_selection(F: np.ndarray, ref: np.ndarray, bounds: np.ndarray,
-                     n: int) -> tuple[np.ndarray, np.ndarray]:
-    """AR-MOEA's environmental selection on objectives only; returns ``(indices, bounds)``."""
+def armoea_selection(F: np.ndarray, ref: np.ndarray, bounds: np.ndarray, n: int,
+                     collapsed_to_one: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """AR-MOEA's environmental selection on objectives only; returns ``(indices, bounds)``.
+    A collapsed range (< 1e-6) gets the upper bound ideal + 1 or, ``collapsed_to_one``,
+    1 (PlatEMO)."""
     fronts = NonDominatedSorting().do(F, n_stop_if_ranked=n)
     keep = np.concatenate(fronts[:-1]).astype(int) if len(fronts) > 1 else np.zeros(0, int)
     last = np.asarray(fronts[-1], dtype=int)
@@ -193,7 +228,7 @@ def armoea_selection(F: np.ndarray, ref: np.ndarray, bounds: np.ndarray,
     bounds = bounds.copy()
     bounds[1] = F[idx].max(axis=0)
     flat = bounds[1] - bounds[0] < 1e-6
-    bounds[1, flat] = bounds[0, flat] + 1.0
+    bounds[1, flat] = 1.0 if collapsed_to_one else bounds[0, flat] + 1.0
     return idx, bounds
 
 
@@ -206,15 +241,26 @@ class CTSEA(Algorithm):
     def __init__(self, *, pop_size: int = 100, stage_ratio: float = 0.5,
                  crossover_eta: float = 20.0, mutation_eta: float = 20.0,
                  normalise: bool = True, random_mating: bool = False,
+                 archive_copies: bool = False, fill_initial_elite: bool = True,
+                 collapsed_range: str = "ideal_plus_one", weights: str = "das_dennis",
                  reference: str = "tmopt") -> None:
         super().__init__(pop_size=pop_size)
-        if reference not in ("tmopt", "platemo"):
-            raise AlgorithmConfigError(f"algorithm {self.name}: reference must be one of "
-                                       f"tmopt, platemo, got {reference!r}")
+        for label, value, allowed in (("reference", reference, REFERENCES),
+                                      ("collapsed_range", collapsed_range, COLLAPSED_RANGES),
+                                      ("weights", weights, WEIGHTS)):
+            if value not in allowed:
+                raise AlgorithmConfigError(f"algorithm {self.name}: {label} must be one of "
+                                           f"{', '.join(allowed)}, got {value!r}")
         self.reference = reference
-        if reference == "platemo":  # PlatEMO's random stage-one mating, raw distances
+        if reference == "platemo":  # every documented fix undone (PLATEMO_SETTINGS)
             random_mating, normalise = True, False
+            archive_copies, fill_initial_elite = True, False
+            collapsed_range, weights = "one", "nbi"
         self.random_mating = bool(random_mating)
+        self.archive_copies = bool(archive_copies)
+        self.fill_initial_elite = bool(fill_initial_elite)
+        self.collapsed_range = collapsed_range
+        self.weights = weights
         if isinstance(stage_ratio, bool) or not isinstance(stage_ratio, (int, float)) \
                 or not 0.0 <= stage_ratio <= 1.0:
             raise AlgorithmConfigError(f"algorithm {self.name}: stage_ratio must be in "
@@ -229,7 +275,8 @@ class CTSEA(Algorithm):
         self.normalise = bool(normalise)
 
     def _setup(self) -> None:
-        self.W = uniform_points(self.pop_size, self.problem.n_obj)
+        self.W = uniform_points(self.pop_size, self.problem.n_obj,
+                                inner_layer=self.weights == "nbi")
         self.stage = 1
         self.pop: dict | None = None
         self.elite: dict | None = None
@@ -246,6 +293,11 @@ class CTSEA(Algorithm):
         if self.stage == 1 and self.n_evals >= self.stage_ratio * self.budget:
             self.pop, self.elite = self.elite, self.pop  # swap once
             self.stage = 2
+            if len(self.pop["X"]) == 0:  # only with fill_initial_elite=False (quirk 3)
+                raise AlgorithmStateError(
+                    f"algorithm {self.name}: stage two starts with an empty population (no "
+                    f"feasible initial design, fill_initial_elite=False, budget <= "
+                    f"{self.pop_size}/stage_ratio); PlatEMO's C-TSEA fails here too")
         self._pending_stage = self.stage
         mates = self._mating_stage_one() if self.stage == 1 else self._mating_stage_two()
         return self._variation(self.pop["X"][mates])
@@ -273,13 +325,15 @@ class CTSEA(Algorithm):
         if self.pop is None:
             self.pop = new
             self.ref_archive, self.ref, self.bounds = update_ref_points(new["F"], self.W, None)
-            self.elite = self._update_elite(None, new)
+            self.elite = self._update_elite(None, new) if self.fill_initial_elite \
+                else _take(new, np.flatnonzero(constraint_violation(new["G"]) <= 0.0))
         elif self._pending_stage == 1:
             both = _join(self.pop, new)
             self.ref_archive, self.ref, self.bounds = update_ref_points(
                 np.vstack([self.ref_archive, new["F"]]), self.W, self.bounds)
             self.elite = self._update_elite(self.elite, both)
-            idx, self.bounds = armoea_selection(both["F"], self.ref, self.bounds, self.pop_size)
+            idx, self.bounds = armoea_selection(both["F"], self.ref, self.bounds, self.pop_size,
+                                                self.collapsed_range == "one")
             self.pop = _take(both, idx)
         else:
             both = _join(self.pop, new)
@@ -289,10 +343,12 @@ class CTSEA(Algorithm):
             self.pop = _take(both, idx[np.argsort(fit[idx], kind="stable")])
 
     def _update_elite(self, elite: dict | None, pop: dict) -> dict:
-        """Feasible designs join (no copies); fill to N by violation or cut by CDP-SPEA2."""
+        """Feasible designs join (no copies, unless ``archive_copies``: PlatEMO appends every
+        feasible member of [population, offspring] each generation); fill to N by violation
+        or cut by CDP-SPEA2."""
         cv = constraint_violation(pop["G"])
         fresh = cv <= 0.0
-        if elite is not None:
+        if elite is not None and not self.archive_copies:
             fresh &= ~_rows_in(pop["X"], elite["X"])
         arc = _take(pop, np.flatnonzero(fresh)) if elite is None \
             else _join(elite, _take(pop, np.flatnonzero(fresh)))

@@ -61,6 +61,14 @@ log = logging.getLogger(__name__)
 
 #: The agent's actions, MGSAEA's stage-two granularities.
 ACTIONS = ("coarse", "fine", "objectives")
+#: How states reach the network: "buffer" (min-max to [-1, 1] over the states in the
+#: replay buffer) or "configured" (PlatEMO's ``configure(net, rand(4, 5), -rand(3, 5))``:
+#: mapminmax fixed once from 5 uniform draws per input, and the outputs likewise from
+#: 5 draws of -U(0, 1) per action).
+INPUT_SCALINGS = ("buffer", "configured")
+#: What ``reference="platemo"`` sets besides MGSAEA's PLATEMO_SETTINGS.
+PLATEMO_SETTINGS = {"input_scaling": "configured", "same_budget_share": True,
+                    "per_set_reward": True}
 
 
 class DoubleDQN:
@@ -73,16 +81,24 @@ class DoubleDQN:
         discount: gamma of the target r + gamma Q_target(s', argmax_a Q(s', a)).
         train_epochs, learning_rate: Adam on the batch's mean squared error.
         seed: Seeds the network weights and the replay sampling.
+        configured: the "configured" input scaling of :data:`INPUT_SCALINGS` (else
+            "buffer").
     """
 
     def __init__(self, n_states: int, n_actions: int, *, hidden: tuple[int, ...],
                  buffer_size: int, discount: float, train_epochs: int, learning_rate: float,
-                 seed: int) -> None:
+                 seed: int, configured: bool = False) -> None:
         self.n_actions = n_actions
         self.discount = discount
         self.train_epochs = train_epochs
         self.learning_rate = learning_rate
         self.rng = np.random.default_rng(seed)
+        self.input_scaling = "configured" if configured else "buffer"
+        if configured:  # DDQN.m: configure(net, rand(nS, 5), -rand(nA, 5))
+            draws = self.rng.random((5, n_states))
+            self.in_lo, self.in_hi = draws.min(axis=0), draws.max(axis=0)
+            targets = -self.rng.random((5, n_actions))
+            self.out_lo, self.out_hi = targets.min(axis=0), targets.max(axis=0)
         with torch.random.fork_rng():
             torch.manual_seed(seed)
             self.agent = _network(n_states, hidden, n_actions)
@@ -99,15 +115,28 @@ class DoubleDQN:
         self.target.load_state_dict(self.agent.state_dict())
 
     def _scaled(self, S: np.ndarray) -> torch.Tensor:
-        """States min-max scaled to [-1, 1] over every state in the buffer (and ``S``)."""
-        seen = np.vstack([self.S, self.S1, S])
-        lo, hi = seen.min(axis=0), seen.max(axis=0)
-        span = np.where(hi > lo, hi - lo, 1.0)
+        """States min-max scaled to [-1, 1] over every state in the buffer (and ``S``), or
+        by the fixed configured ranges (MATLAB's mapminmax: 2 (s - lo) / (hi - lo) - 1)."""
+        if self.input_scaling == "configured":
+            lo, span = self.in_lo, self.in_hi - self.in_lo
+        else:
+            seen = np.vstack([self.S, self.S1, S])
+            lo, hi = seen.min(axis=0), seen.max(axis=0)
+            span = np.where(hi > lo, hi - lo, 1.0)
         return torch.as_tensor(2.0 * (S - lo) / span - 1.0, dtype=torch.float64)
+
+    def _q(self, net: torch.nn.Module, S: torch.Tensor) -> torch.Tensor:
+        """Q-values; with the configured scaling the network's outputs live in [-1, 1] of
+        the configured output ranges (mapminmax's reverse)."""
+        out = net(S)
+        if self.input_scaling != "configured":
+            return out
+        lo = torch.as_tensor(self.out_lo)
+        return lo + (out + 1.0) * torch.as_tensor(self.out_hi - self.out_lo) / 2.0
 
     def q_values(self, state: np.ndarray) -> np.ndarray:
         with torch.no_grad():
-            return self.agent(self._scaled(np.atleast_2d(state)))[0].numpy()
+            return self._q(self.agent, self._scaled(np.atleast_2d(state)))[0].numpy()
 
     def act(self, state: np.ndarray, rng: np.random.Generator) -> int:
         """The greedy action (ties: any of them) with probability (n+1)/(2n), else uniform."""
@@ -130,10 +159,10 @@ class DoubleDQN:
         """Training targets (batch, n_actions): the network's own Q-values, except
         Q(s, a) <- r + gamma Q_target(s', argmax_b Q(s', b)) (double DQN)."""
         with torch.no_grad():
-            target = self.agent(self._scaled(S)).clone()
+            target = self._q(self.agent, self._scaled(S)).clone()
             next_in = self._scaled(S1)
-            best_next = self.agent(next_in).argmax(dim=1)
-            next_q = self.target(next_in).gather(1, best_next[:, None])[:, 0]
+            best_next = self._q(self.agent, next_in).argmax(dim=1)
+            next_q = self._q(self.target, next_in).gather(1, best_next[:, None])[:, 0]
             rows = torch.arange(len(S))
             target[rows, torch.as_tensor(A)] = torch.as_tensor(R) + self.discount * next_q
         return target
@@ -147,7 +176,7 @@ class DoubleDQN:
         loss = torch.zeros(())
         for _ in range(self.train_epochs):
             opt.zero_grad()
-            loss = torch.mean((self.agent(S) - target) ** 2)
+            loss = torch.mean((self._q(self.agent, S) - target) ** 2)
             loss.backward()
             opt.step()
         return float(loss.item())
@@ -169,21 +198,31 @@ def elite_state(F: np.ndarray, G: np.ndarray, spent: float) -> np.ndarray:
     return np.array([var, F.sum(), np.maximum(G, 0.0).sum(), spent])
 
 
-def reward(F0: np.ndarray, G0: np.ndarray, F1: np.ndarray, G1: np.ndarray) -> float:
+def reward(F0: np.ndarray, G0: np.ndarray, F1: np.ndarray, G1: np.ndarray,
+           per_set: bool = False) -> float:
     """Relative hypervolume change of the feasible non-dominated designs plus the relative
     decrease of the total violation, from set 0 to set 1 (GenerateSample.m).
 
     The hypervolume of both is taken in one normalisation: lower bound min(0, the
     smallest objective value of either feasible set), upper bound the largest objective
     values of both whole sets, reference point 1.1 (PlatEMO's ``HV`` with the largest
-    values as its "optimum").
+    values as its "optimum"). ``per_set``: PlatEMO's ``HV`` as GenerateSample.m calls it:
+    each set's own lower bound min(0, its feasible set's minimum); a set without feasible
+    designs has HV NaN, and a NaN relative change counts 0 (x / 0 stays inf).
     """
     upper = np.vstack([F0, F1]).max(axis=0)
     fronts = [_feasible_front(F, G) for F, G in ((F0, G0), (F1, G1))]
-    lower = np.minimum(np.vstack([np.zeros((1, F0.shape[1])), *fronts]).min(axis=0), 0.0)
     ref = np.full(F0.shape[1], 1.1)
-    hv0, hv1 = (hypervolume(f, ref, lower, upper) if len(f) else 0.0 for f in fronts)
-    r_hv = (hv1 - hv0) / hv0 if hv0 > 0 else 0.0
+    if per_set:
+        hv0, hv1 = (hypervolume(f, ref, np.minimum(f.min(axis=0), 0.0), upper) if len(f)
+                    else np.nan for f in fronts)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r_hv = np.float64(hv1 - hv0) / np.float64(hv0)
+        r_hv = 0.0 if np.isnan(r_hv) else float(r_hv)
+    else:
+        lower = np.minimum(np.vstack([np.zeros((1, F0.shape[1])), *fronts]).min(axis=0), 0.0)
+        hv0, hv1 = (hypervolume(f, ref, lower, upper) if len(f) else 0.0 for f in fronts)
+        r_hv = (hv1 - hv0) / hv0 if hv0 > 0 else 0.0
     cv0, cv1 = np.maximum(G0, 0.0).sum(), np.maximum(G1, 0.0).sum()
     r_cv = 0.0 if cv0 == 0 else (cv0 - cv1) / cv0
     return float(r_hv + r_cv)
@@ -202,12 +241,23 @@ class DRLSAEA(MGSAEA):
     def __init__(self, *, hidden: tuple[int, ...] | list[int] = (5, 5), buffer_size: int = 100,
                  batch_size: int = 16, replay_every: int = 8, copy_every: int = 11,
                  discount: float = 0.999, train_epochs: int = 100,
-                 learning_rate: float = 0.01, **kwargs) -> None:
+                 learning_rate: float = 0.01, input_scaling: str = "buffer",
+                 same_budget_share: bool = False, per_set_reward: bool = False,
+                 **kwargs) -> None:
         """Args: the agent's settings (GenerateSample.m, DDQN.m, DRLSAEA.m; ``train_epochs``
-        and ``learning_rate`` are this implementation's, see the module docstring) and
-        MGSAEA's keyword arguments."""
+        and ``learning_rate`` are this implementation's, see the module docstring), the
+        PlatEMO-parity switches (module docstring) and MGSAEA's keyword arguments
+        (``reference="platemo"`` sets both groups)."""
         super().__init__(**kwargs)
         name = self.name
+        if input_scaling not in INPUT_SCALINGS:
+            raise AlgorithmConfigError(f"algorithm {name}: input_scaling must be one of "
+                                       f"{', '.join(INPUT_SCALINGS)}, got {input_scaling!r}")
+        if self.reference == "platemo":  # every documented fix undone (PLATEMO_SETTINGS)
+            input_scaling, same_budget_share, per_set_reward = "configured", True, True
+        self.input_scaling = input_scaling
+        self.same_budget_share = bool(same_budget_share)
+        self.per_set_reward = bool(per_set_reward)
         if isinstance(hidden, (str, bytes)) or not all(
                 isinstance(w, int) and not isinstance(w, bool) and w >= 1 for w in hidden):
             raise AlgorithmConfigError(f"algorithm {name}: hidden must be a list of integers >= 1, "
@@ -229,7 +279,8 @@ class DRLSAEA(MGSAEA):
                                buffer_size=self.buffer_size, discount=self.discount,
                                train_epochs=self.train_epochs,
                                learning_rate=self.learning_rate,
-                               seed=int(self.rng.integers(2**31)))
+                               seed=int(self.rng.integers(2**31)),
+                               configured=self.input_scaling == "configured")
         self.action: int | None = None
         self._state: np.ndarray | None = None
         self._before: tuple[np.ndarray, np.ndarray] | None = None
@@ -242,8 +293,11 @@ class DRLSAEA(MGSAEA):
         elite = self._elite
         state = elite_state(elite.F, elite.G, self.n_evals / self.budget)
         if self.action is not None:
-            r = reward(*self._before, elite.F, elite.G)
-            self.agent.store(self._state, self.action, r, state)
+            r = reward(*self._before, elite.F, elite.G, per_set=self.per_set_reward)
+            before = self._state.copy()
+            if self.same_budget_share:  # GenerateSample.m: both states get the current share
+                before[3] = state[3]
+            self.agent.store(before, self.action, r, state)
             self._rewards.append(r)
             self._steps += 1
             if self._steps % self.replay_every == 0:

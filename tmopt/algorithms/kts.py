@@ -64,13 +64,17 @@ evaluate), following KTS.m:
    feasible non-dominated members of P2.
 6. Evaluate; update A1, CA, DA1, P1, P2 with the real values.
 
-Deviations from PlatEMO (docs/algorithms-baselines.md, "KTS"): the convergence test is
+Deviations from PlatEMO (docs/algorithms-frontier.md, "KTS"): the convergence test is
 Wilcoxon's rank-sum test (PlatEMO pairs the two unordered sets by index in a signed-rank
 test and skips it unless they have equal sizes); the I_eps+ deletion update uses the
 removed column's own scale for every column (PlatEMO mixes the scales); the DA update of
 the predictions keeps the extreme designs (PlatEMO keeps a design chosen by a random
 objective's index); designs already evaluated are never proposed in constrained mode
-either; failed designs leave the training data.
+either; k-means runs on normalised predicted objectives; failed designs leave the
+training data. Each of these is a constructor argument (``paired_convergence_test``,
+``mixed_scale_deletion``, ``da_update``, ``skip_evaluated``, ``kmeans_normalised``, and
+``normalise`` for SPEA2's distances); ``reference="platemo"`` sets all of them to KTS.m's
+behaviour (:data:`PLATEMO_SETTINGS`).
 """
 
 from __future__ import annotations
@@ -83,10 +87,11 @@ import numpy as np
 from pymoo.operators.sampling.lhs import LHS
 from scipy.cluster.vq import kmeans2
 from scipy.spatial.distance import cdist
-from scipy.stats import mannwhitneyu
+from scipy.stats import mannwhitneyu, rankdata, wilcoxon
 
 from tmopt.algorithms.base import (
     Algorithm,
+    AlgorithmConfigError,
     check_int,
     check_number,
     check_surrogate_factory,
@@ -117,6 +122,21 @@ from tmopt.surrogates.base import Surrogate
 log = logging.getLogger(__name__)
 
 UNCONSTRAINED, CONSTRAINED = "unconstrained", "constrained"
+#: ``reference``: "tmopt" (the fixes in the module docstring) or "platemo" (KTS.m's
+#: behaviour for each, :data:`PLATEMO_SETTINGS`).
+REFERENCES = ("tmopt", "platemo")
+#: DA updates: "tmopt" (extremes, then L_p farthest points on objectives normalised over the
+#: non-dominated rows) or "platemo" (UpdateDA.m on raw objectives for real designs;
+#: K_UpdateDA.m for predictions: the row at a random objective index, normalised over all
+#: rows before the non-dominated filter).
+DA_UPDATES = ("tmopt", "platemo")
+#: What ``reference="platemo"`` sets (each can also be set alone to measure one fix).
+PLATEMO_SETTINGS = {"paired_convergence_test": True, "mixed_scale_deletion": True,
+                    "da_update": "platemo", "skip_evaluated": False,
+                    "kmeans_normalised": False, "normalise": False}
+#: KTS.m adds a real design to A1 (the objective models' data) only if it lies farther
+#: than this (Euclidean, raw decision space) from every design already there.
+A1_DUPLICATE_DISTANCE = 1e-5
 
 
 @dataclass
@@ -165,9 +185,14 @@ def eps_fitness(F: np.ndarray, kappa: float) -> np.ndarray:
     return 1.0 - np.exp(-eps / scale[None, :] / kappa).sum(axis=0)
 
 
-def eps_truncation(F: np.ndarray, n: int, kappa: float) -> np.ndarray:
+def eps_truncation(F: np.ndarray, n: int, kappa: float,
+                   mixed_scale: bool = False) -> np.ndarray:
     """Indices (ascending) of ``n`` survivors: repeatedly delete the worst fitness and
-    give its contribution back to the others (IBEA's environmental selection)."""
+    give its contribution back to the others (IBEA's environmental selection).
+
+    ``mixed_scale``: PlatEMO's UpdateCA.m / K_UpdateCA.m / Adaptive_sampling.m give back
+    exp(-I(x, j) / c_x / kappa) with the deleted design x's scale c_x for every column j
+    (the fitness was built with each column's own c_j)."""
     if len(F) <= n:
         return np.arange(len(F))
     eps, scale = _eps_matrix(F)
@@ -177,7 +202,7 @@ def eps_truncation(F: np.ndarray, n: int, kappa: float) -> np.ndarray:
     for _ in range(len(F) - n):
         worst = np.flatnonzero(alive)[np.argmin(fit[alive])]
         alive[worst] = False
-        fit += contrib[worst]
+        fit += np.exp(-eps[worst] / scale[worst] / kappa) if mixed_scale else contrib[worst]
     return np.flatnonzero(alive)
 
 
@@ -203,6 +228,56 @@ def diversity_archive(F: np.ndarray, n: int, p: float) -> np.ndarray:
         chosen[extra] = False
     chosen = farthest_points(lp_distances(Fn, Fn, p), chosen, n)
     return nd[np.flatnonzero(chosen)]
+
+
+def platemo_diversity_archive(F: np.ndarray, n: int, p: float, rng: np.random.Generator,
+                              predicted: bool) -> np.ndarray:
+    """PlatEMO's DA updates: indices of the non-dominated rows; above ``n``, farthest
+    points in the L_p norm grown from
+
+    * real designs (UpdateDA.m): the extreme rows, ``n`` of them kept at random if they
+      are more, distances on the raw objectives;
+    * predictions (K_UpdateDA.m): the row at a random *objective index* (a random one of
+      the first M non-dominated rows), distances on objectives min-max normalised over
+      all rows of ``F`` before the non-dominated filter.
+    """
+    nd = np.flatnonzero(~dominance_matrix(F).any(axis=0))
+    if len(nd) <= n:
+        return nd
+    chosen = np.zeros(len(nd), dtype=bool)
+    if predicted:
+        Fd = normalised(F)[nd]
+        # (an index past the rows only when N < M: MATLAB would grow the mask; wrap instead)
+        chosen[rng.permutation(F.shape[1])[0] % len(nd)] = True
+    else:
+        Fd = F[nd]
+        chosen[np.argmin(Fd, axis=0)] = True
+        chosen[np.argmax(Fd, axis=0)] = True
+        if chosen.sum() > n:
+            chosen[rng.permutation(np.flatnonzero(chosen))[: chosen.sum() - n]] = False
+    chosen = farthest_points(lp_distances(Fd, Fd, p), chosen, n)
+    return nd[np.flatnonzero(chosen)]
+
+
+def paired_signed_rank_converges(d_ca: np.ndarray, d_da: np.ndarray) -> bool:
+    """Cal_Convergence.m's decision given the two distance lists (paired by index):
+    Wilcoxon's signed-rank test of d_ca - d_da (PlatEMO's signrank_new: differences below
+    eps(x) + eps(y) and NaN dropped; exact for n <= 15, else the normal approximation
+    without continuity correction), two-sided at 0.05, and convergence only when the rank
+    sum of the negative differences (CA closer) is at least that of the positive ones."""
+    diff = np.asarray(d_ca, dtype=float) - np.asarray(d_da, dtype=float)
+    tiny = np.spacing(np.abs(d_ca)) + np.spacing(np.abs(d_da))
+    keep = np.isfinite(diff) & (np.abs(diff) >= tiny)
+    diff = diff[keep]
+    n = len(diff)
+    if n == 0:
+        return False
+    ranks = rankdata(np.abs(diff))
+    r_neg = ranks[diff < 0].sum()
+    r_pos = n * (n + 1) / 2 - r_neg
+    pvalue = wilcoxon(diff, zero_method="wilcox", correction=False,
+                      method="exact" if n <= 15 else "approx").pvalue
+    return bool(pvalue <= 0.05 and r_neg >= r_pos)
 
 
 def pure_diversity(F: np.ndarray, p: float = 0.1) -> float:
@@ -255,9 +330,27 @@ class KTS(Algorithm):
                  n_elite: int = 20, wmax: int = 10, n_infill: int = 5,
                  uncertainty_share: float = 0.1, kappa: float = 0.05,
                  crossover_eta: float = 20.0, mutation_eta: float = 20.0,
-                 normalise: bool = True, surrogate: SurrogateFactory | None = None) -> None:
+                 normalise: bool = True, paired_convergence_test: bool = False,
+                 mixed_scale_deletion: bool = False, da_update: str = "tmopt",
+                 skip_evaluated: bool = True, kmeans_normalised: bool = True,
+                 reference: str = "tmopt", surrogate: SurrogateFactory | None = None) -> None:
         super().__init__(pop_size=pop_size)
         name = self.name
+        for label, value, allowed in (("reference", reference, REFERENCES),
+                                      ("da_update", da_update, DA_UPDATES)):
+            if value not in allowed:
+                raise AlgorithmConfigError(f"algorithm {name}: {label} must be one of "
+                                           f"{', '.join(allowed)}, got {value!r}")
+        self.reference = reference
+        if reference == "platemo":  # every documented fix undone (PLATEMO_SETTINGS)
+            paired_convergence_test = mixed_scale_deletion = True
+            skip_evaluated = kmeans_normalised = normalise = False
+            da_update = "platemo"
+        self.paired_convergence_test = bool(paired_convergence_test)
+        self.mixed_scale_deletion = bool(mixed_scale_deletion)
+        self.da_update = da_update
+        self.skip_evaluated = bool(skip_evaluated)
+        self.kmeans_normalised = bool(kmeans_normalised)
         self.tau = check_number(name, "tau", tau, -1.0, 1.0)
         self.phi = check_number(name, "phi", phi, -1.0, 1.0)
         self.n_elite = check_int(name, "n_elite", n_elite, 2)
@@ -370,10 +463,10 @@ class KTS(Algorithm):
             off = self._offspring(cca, cda, cp2)
             pop = self._predict(off)
             cca = cca + pop
-            cca = cca.take(eps_truncation(cca.F, N, self.kappa))
+            cca = cca.take(self._eps_truncation(cca.F, N))
             cda = cda + pop
-            cda = cda.take(diversity_archive(cda.F, N, self._p)) if self.mode == UNCONSTRAINED \
-                else self._spea2(cda, N, constrained=False)
+            cda = cda.take(self._diversity_archive(cda.F, predicted=True)) \
+                if self.mode == UNCONSTRAINED else self._spea2(cda, N, constrained=False)
             cp2 = self._spea2(cp2 + pop, N, constrained=True)
         return cca, cda, cp2
 
@@ -406,7 +499,8 @@ class KTS(Algorithm):
             cca, cda = cca.take(~self._already_seen(cca.X)), cda.take(~self._already_seen(cda.X))
             X = self._adaptive_sampling(cca, cda, da)
         else:
-            X = self._constrained_sampling(cp2.take(~self._already_seen(cp2.X)))
+            X = self._constrained_sampling(cp2.take(~self._already_seen(cp2.X))
+                                           if self.skip_evaluated else cp2)
         if len(X) == 0:
             log.warning("%s: every surrogate candidate is already evaluated; sending %d "
                         "random designs", self.name, self.n_infill)
@@ -420,7 +514,7 @@ class KTS(Algorithm):
         mu = self.n_infill
         if len(cda) <= mu or self._ca_converges_better(cca, cda):
             self.sampling = "convergence"
-            return cca.X[eps_truncation(cca.F, mu, self.kappa)] if len(cca) else cda.X
+            return cca.X[self._eps_truncation(cca.F, mu)] if len(cca) else cda.X
         if pure_diversity(cda.F) < pure_diversity(da.F):
             self.sampling = "uncertainty"
             size = int(np.ceil(self.uncertainty_share * len(cda)))
@@ -439,7 +533,20 @@ class KTS(Algorithm):
     def _ca_converges_better(self, cca: Designs, cda: Designs) -> bool:
         """Whether CCA's distances to the ideal point are significantly (rank-sum test,
         0.05) smaller than CDA's (Cal_Convergence.m; distance = sqrt of the summed
-        normalised objectives, as KTA2)."""
+        normalised objectives, as KTA2). ``paired_convergence_test``: Cal_Convergence.m
+        itself (:func:`paired_signed_rank_converges`; "not converging" unless the sizes
+        are equal; objectives translated by the ideal point z and divided by
+        max(f - z) - z, z subtracted twice as there; a negative sum under the root,
+        complex in MATLAB, is NaN here and dropped)."""
+        if self.paired_convergence_test:
+            if len(cca) != len(cda):
+                return False
+            both = np.vstack([cca.F, cda.F])
+            ideal = both.min(axis=0)
+            shifted = both - ideal
+            with np.errstate(invalid="ignore", divide="ignore"):
+                dist = np.sqrt((shifted / (shifted.max(axis=0) - ideal)).sum(axis=1))
+            return paired_signed_rank_converges(dist[: len(cca)], dist[len(cca):])
         if len(cca) < 2 or len(cda) < 2:
             return False
         both = np.vstack([cca.F, cda.F])
@@ -468,10 +575,19 @@ class KTS(Algorithm):
         fitness = dom.T.astype(float) @ strength + 1.0 / (cdist(cp2.F, ref).min(axis=1) + 2.0)
         with warnings.catch_warnings():  # an empty cluster only gives one design fewer
             warnings.simplefilter("ignore")
-            _, label = kmeans2(normalised(cp2.F), mu, minit="++", rng=self.rng)
+            _, label = kmeans2(normalised(cp2.F) if self.kmeans_normalised else cp2.F, mu,
+                               minit="++", rng=self.rng)
         picks = [members[np.argmin(fitness[members])]
                  for k in range(mu) if len(members := np.flatnonzero(label == k))]
         return cp2.X[np.sort(picks)]
+
+    def _eps_truncation(self, F: np.ndarray, n: int) -> np.ndarray:
+        return eps_truncation(F, n, self.kappa, mixed_scale=self.mixed_scale_deletion)
+
+    def _diversity_archive(self, F: np.ndarray, predicted: bool) -> np.ndarray:
+        if self.da_update == "platemo":
+            return platemo_diversity_archive(F, self.pop_size, self._p, self.rng, predicted)
+        return diversity_archive(F, self.pop_size, self._p)
 
     def _already_seen(self, X: np.ndarray) -> np.ndarray:
         return already_evaluated(X, self._seen, self.problem.xl, self.problem.xu)
@@ -483,16 +599,20 @@ class KTS(Algorithm):
         N = self.pop_size
         if self._all is None:
             self._all = new
-            self._ca = new.take(eps_truncation(new.F, N, self.kappa))
-            self._da = new.take(diversity_archive(new.F, N, self._p))
+            self._ca = new.take(self._eps_truncation(new.F, N))
+            self._da = new.take(self._diversity_archive(new.F, predicted=False))
             self._p1 = self._spea2(new, N, constrained=False)
             self._p2 = self._spea2(new, N, constrained=True)
         else:
-            self._all = self._all + new
+            # re-sent designs (skip_evaluated=False) stay out of A1 as in KTS.m, but join
+            # CA, DA, P1 and P2 as copies
+            far = cdist(new.X, self._all.X).min(axis=1) > A1_DUPLICATE_DISTANCE \
+                if not self.skip_evaluated else np.ones(len(new), dtype=bool)
+            self._all = self._all + new.take(far)
             ca = self._ca + new
-            self._ca = ca.take(eps_truncation(ca.F, N, self.kappa))
+            self._ca = ca.take(self._eps_truncation(ca.F, N))
             da = self._da + new
-            self._da = da.take(diversity_archive(da.F, N, self._p))
+            self._da = da.take(self._diversity_archive(da.F, predicted=False))
             self._p1 = self._spea2(self._p1 + new, N, constrained=False)
             self._p2 = self._spea2(self._p2 + new, N, constrained=True)
         if len(self._all) < 2:

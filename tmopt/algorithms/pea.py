@@ -43,9 +43,12 @@ and the candidates already chosen. (5) Evaluate; P = N best of the database by C
 Deviations from PlatEMO (docs/algorithms-frontier.md, "PEA"): one multi-output model of
 the objectives and one of the constraints from the ``surrogate`` group (PlatEMO: one
 Kriging with a linear trend per output); a zero-variance tie counts as 1/2 (PlatEMO: 0/0
-= NaN makes such pairs mutually non-dominated); when every candidate is already evaluated,
-``mu`` random designs are sent (PlatEMO evaluates nothing and searches again from the same
-models, which can repeat forever); failed designs leave the training data.
+= NaN makes such pairs mutually non-dominated; ``nan_ties=True``); when every candidate
+is already evaluated, ``mu`` random designs are sent (PlatEMO evaluates nothing and
+searches again from the same models, which can repeat forever; ``random_fallback=False``
+does so, up to :data:`REPEATED_SEARCHES` searches, then falls back); failed designs leave
+the training data. ``reference="platemo"`` sets both and ``normalise=False``
+(:data:`PLATEMO_SETTINGS`).
 """
 
 from __future__ import annotations
@@ -59,6 +62,7 @@ from scipy.stats import norm
 
 from tmopt.algorithms.base import (
     Algorithm,
+    AlgorithmConfigError,
     check_int,
     check_number,
     check_surrogate_factory,
@@ -76,6 +80,15 @@ from tmopt.metrics.indicators import constraint_violation
 from tmopt.surrogates.base import Surrogate
 
 log = logging.getLogger(__name__)
+
+#: ``reference``: "tmopt" (the fixes in the module docstring) or "platemo" (PEA.m's
+#: behaviour for each, :data:`PLATEMO_SETTINGS`).
+REFERENCES = ("tmopt", "platemo")
+#: What ``reference="platemo"`` sets (each can also be set alone to measure one fix).
+PLATEMO_SETTINGS = {"nan_ties": True, "random_fallback": False, "normalise": False}
+#: With ``random_fallback=False``: searches from the same models before random designs
+#: are sent after all (PEA.m would search for ever; a run must end).
+REPEATED_SEARCHES = 20
 
 
 def better_probability(F: np.ndarray, var: np.ndarray) -> np.ndarray:
@@ -104,13 +117,20 @@ def feasible_probability(G: np.ndarray, var: np.ndarray) -> np.ndarray:
 
 
 def cppd_matrix(F: np.ndarray, f_var: np.ndarray, G: np.ndarray,
-                g_var: np.ndarray) -> np.ndarray:
-    """``D[i, j]``: i CPPD-dominates j (module docstring)."""
+                g_var: np.ndarray, nan_ties: bool = False) -> np.ndarray:
+    """``D[i, j]``: i CPPD-dominates j (module docstring). ``nan_ties``: NDSort_CPPD.m's
+    0/0 -- a pair tied with zero variance in some objective has NaN probabilities there,
+    every comparison with them is false, and neither design dominates the other."""
     lfp = feasible_probability(G, g_var)
     p = better_probability(F, f_var)
     mine = p * lfp[:, None, None]                     # P_k(i < j) LFP_i
     theirs = np.swapaxes(p, 0, 1) * lfp[None, :, None]  # P_k(j < i) LFP_j
-    return (mine >= theirs).all(axis=2) & (mine > theirs).any(axis=2)
+    dom = (mine >= theirs).all(axis=2) & (mine > theirs).any(axis=2)
+    if nan_ties:
+        exact_tie = (f_var[:, None, :] + f_var[None, :, :] == 0) \
+            & (F[:, None, :] == F[None, :, :])
+        dom &= ~exact_tie.any(axis=2)
+    return dom
 
 
 def cppd_fronts(dom: np.ndarray, n_sort: int) -> np.ndarray:
@@ -137,9 +157,18 @@ class PEA(Algorithm):
 
     def __init__(self, *, pop_size: int = 100, wmax: int = 20, mu: int = 5,
                  crossover_eta: float = 20.0, mutation_eta: float = 20.0,
-                 normalise: bool = True, surrogate: SurrogateFactory | None = None) -> None:
+                 normalise: bool = True, nan_ties: bool = False, random_fallback: bool = True,
+                 reference: str = "tmopt", surrogate: SurrogateFactory | None = None) -> None:
         super().__init__(pop_size=pop_size)
         name = self.name
+        if reference not in REFERENCES:
+            raise AlgorithmConfigError(f"algorithm {name}: reference must be one of "
+                                       f"{', '.join(REFERENCES)}, got {reference!r}")
+        self.reference = reference
+        if reference == "platemo":  # every documented fix undone (PLATEMO_SETTINGS)
+            nan_ties, random_fallback, normalise = True, False, False
+        self.nan_ties = bool(nan_ties)
+        self.random_fallback = bool(random_fallback)
         self.wmax = check_int(name, "wmax", wmax, 1)
         self.mu = check_int(name, "mu", mu, 1)
         self.crossover_eta = check_number(name, "crossover_eta", crossover_eta, 0.0)
@@ -157,9 +186,11 @@ class PEA(Algorithm):
         self._obj_model: Surrogate | None = None
         self._con_model: Surrogate | None = None
         self._random_batches = 0
+        self._repeated_searches = 0
 
     def summary(self) -> dict:
-        return {"random_batches": self._random_batches}
+        return {"random_batches": self._random_batches,
+                "repeated_searches": self._repeated_searches}
 
     # ---- ask -------------------------------------------------------------------------------
     def _infill(self) -> np.ndarray:
@@ -167,8 +198,17 @@ class PEA(Algorithm):
             X = LHS().do(self.problem, self.pop_size, random_state=self.rng).get("X")
             return self._remember(X)
         self._fit()
-        X, F, fv, G, gv = self._search()
-        return self._remember(self._candidates(X, F, fv, G, gv))
+        for attempt in range(1 if self.random_fallback else REPEATED_SEARCHES):
+            if attempt:  # PEA.m: nothing evaluated, search again from the same models
+                self._repeated_searches += 1
+            C = self._candidates(*self._search())
+            if len(C):
+                return self._remember(C)
+        log.warning("%s: every candidate is already evaluated; sending %d random designs",
+                    self.name, self.mu)
+        self._random_batches += 1
+        return self._remember(self.rng.uniform(self.problem.xl, self.problem.xu,
+                                               size=(self.mu, self.problem.n_var)))
 
     def _remember(self, X: np.ndarray) -> np.ndarray:
         X = np.clip(X, self.problem.xl, self.problem.xu)
@@ -207,7 +247,8 @@ class PEA(Algorithm):
             f, f_v, g, g_v = self._predict(off)
             X, F, G = np.vstack([X, off]), np.vstack([F, f]), np.vstack([G, g])
             fv, gv = np.vstack([fv, f_v]), np.vstack([gv, g_v])
-            keep = self._select(F, cppd_fronts(cppd_matrix(F, fv, G, gv), n), n)
+            keep = self._select(F, cppd_fronts(cppd_matrix(F, fv, G, gv, self.nan_ties), n),
+                                n)
             X, F, G, fv, gv = X[keep], F[keep], G[keep], fv[keep], gv[keep]
         return X, F, fv, G, gv
 
@@ -233,21 +274,16 @@ class PEA(Algorithm):
         return np.sort(np.concatenate([np.flatnonzero(before), kept]))
 
     def _candidates(self, X, F, fv, G, gv) -> np.ndarray:
-        """Step 4: ``mu`` not-yet-evaluated designs by CPPD fronts and distance."""
+        """Step 4: ``mu`` not-yet-evaluated designs by CPPD fronts and distance (none if
+        every candidate is already evaluated)."""
         new = ~self._already_seen(X)
-        if not new.any():
-            log.warning("%s: every candidate is already evaluated; sending %d random "
-                        "designs", self.name, self.mu)
-            self._random_batches += 1
-            return self.rng.uniform(self.problem.xl, self.problem.xu,
-                                    size=(self.mu, self.problem.n_var))
         X, F, fv, G, gv = X[new], F[new], fv[new], G[new], gv[new]
         if len(X) <= self.mu:
             return X
         lo = np.vstack([self._F, F]).min(axis=0)
         span = np.maximum(np.vstack([self._F, F]).max(axis=0) - lo, 1e-9)
         Fn, fvn = (F - lo) / span, fv / span**2
-        front = cppd_fronts(cppd_matrix(Fn, fvn, G, gv), self.mu)
+        front = cppd_fronts(cppd_matrix(Fn, fvn, G, gv, self.nan_ties), self.mu)
         last = np.nanmax(np.where(np.isfinite(front), front, np.nan))
         chosen = front < last
         tied = np.flatnonzero(front == last)

@@ -24,7 +24,7 @@ design follow PlatEMO's ``SSDE/Training.m`` (written by an author of the SSDE pa
 Deviation (docs/algorithms-baselines.md, "SSDE"): PlatEMO draws the two parents' indices
 from 1..(number of winners) and then uses them as indices of the whole map, i.e. the
 first nodes, winners or not; here they index the winning nodes, as the comment there
-says was intended.
+says was intended (``reseed_first_nodes=True`` restores PlatEMO's indexing).
 """
 
 from __future__ import annotations
@@ -46,11 +46,16 @@ class SelfOrganisingMap:
         sigma0: Initial neighbourhood radius (lattice units).
         epochs: Passes over the samples per training.
         rng: Random generator (initial weights, shuffling, re-seeding).
+        reseed_first_nodes: PlatEMO's Training.m: the two parents of a re-seeded node are
+            nodes ``k`` of the whole map for ``k`` drawn among 0..(winners - 1) with the
+            k-th winner's weight, i.e. the first nodes, winners or not.
     """
 
     def __init__(self, n_nodes: int, n_var: int, n_out: int, eta0: float, sigma0: float,
-                 epochs: int, rng: np.random.Generator) -> None:
+                 epochs: int, rng: np.random.Generator,
+                 reseed_first_nodes: bool = False) -> None:
         self.n_var, self.n_out = n_var, n_out
+        self.reseed_first_nodes = reseed_first_nodes
         self.eta0, self.sigma0, self.epochs = eta0, sigma0, epochs
         self.rng = rng
         self.W = 0.001 * rng.standard_normal((n_nodes, n_var + n_out)) + 0.5
@@ -107,7 +112,8 @@ class SelfOrganisingMap:
         crowd = crowding_per_front(Fw, cdp_sort(Fw, np.zeros(len(Fw))))
         weight = np.empty(len(Fw))
         weight[np.argsort(crowd, kind="stable")] = np.arange(1, len(Fw) + 1)
-        pick = self.rng.choice(winners, size=(idle.size, 2), p=weight / weight.sum())
+        parents = np.arange(len(winners)) if self.reseed_first_nodes else winners
+        pick = self.rng.choice(parents, size=(idle.size, 2), p=weight / weight.sum())
         noise = 0.001 * self.rng.standard_normal((idle.size, self.W.shape[1]))
         self.W[idle] = 0.5 * (self.W[pick[:, 0]] + self.W[pick[:, 1]]) + noise
         self.W[:, : self.n_var] = np.clip(self.W[:, : self.n_var], 0.0, 1.0)

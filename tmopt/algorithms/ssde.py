@@ -26,6 +26,9 @@ Parameters (keyword arguments; defaults: the constructor's signature):
     model_constraints: tmopt's extension, not in the paper or PlatEMO: the SOM
         also carries the constraint values, and a child's CV is that of its BMU instead
         of 0. Off by default (faithful); see the note on constraints below.
+    reseed_first_nodes: PlatEMO's indexing of the re-seeding parents (the first nodes of
+        the map instead of the winning nodes; :mod:`tmopt.algorithms.som`).
+    reference: "tmopt" or "platemo" (sets ``reseed_first_nodes``, :data:`PLATEMO_SETTINGS`).
 
 Algorithm (SSDE.m / Operator.m), one generation:
 
@@ -60,7 +63,7 @@ import logging
 
 import numpy as np
 
-from tmopt.algorithms.base import Algorithm, check_int, check_number
+from tmopt.algorithms.base import Algorithm, AlgorithmConfigError, check_int, check_number
 from tmopt.algorithms.operators.survival import nsga2_selection
 from tmopt.algorithms.operators.variation import de_offspring, tournament
 from tmopt.algorithms.som import SelfOrganisingMap
@@ -68,6 +71,11 @@ from tmopt.evaluation.evaluator import EvaluatedBatch
 from tmopt.metrics.indicators import constraint_violation
 
 log = logging.getLogger(__name__)
+
+#: ``reference``: "tmopt" (the documented fix) or "platemo" (Training.m's behaviour).
+REFERENCES = ("tmopt", "platemo")
+#: What ``reference="platemo"`` sets.
+PLATEMO_SETTINGS = {"reseed_first_nodes": True}
 
 
 class SSDE(Algorithm):
@@ -78,9 +86,15 @@ class SSDE(Algorithm):
     def __init__(self, *, pop_size: int = 100, n_nodes: int | None = None, eta0: float = 0.2,
                  sigma0: float | None = None, epochs: int = 50, de_f: float = 0.5,
                  de_cr: float = 1.0, mutation_eta: float = 20.0, max_idle: int = 100,
-                 model_constraints: bool = False) -> None:
+                 model_constraints: bool = False, reseed_first_nodes: bool = False,
+                 reference: str = "tmopt") -> None:
         super().__init__(pop_size=pop_size)
         name = self.name
+        if reference not in REFERENCES:
+            raise AlgorithmConfigError(f"algorithm {name}: reference must be one of "
+                                       f"{', '.join(REFERENCES)}, got {reference!r}")
+        self.reference = reference
+        self.reseed_first_nodes = bool(reseed_first_nodes) or reference == "platemo"
         self.n_nodes = None if n_nodes is None else check_int(name, "n_nodes", n_nodes, 1)
         self.eta0 = check_number(name, "eta0", eta0, 0.0, 1.0, low_open=True)
         self.sigma0 = None if sigma0 is None else check_number(name, "sigma0", sigma0, 0.0,
@@ -99,7 +113,8 @@ class SSDE(Algorithm):
         self._n_out = p.n_obj + (p.n_ieq_constr if self.model_constraints else 0)
         self.som = SelfOrganisingMap(nodes, p.n_var, self._n_out, self.eta0,
                                      self.sigma0 if self.sigma0 is not None else self.pop_size,
-                                     self.epochs, self.rng)
+                                     self.epochs, self.rng,
+                                     reseed_first_nodes=self.reseed_first_nodes)
         self.X = self.F = self.G = None
         self._failed = np.zeros(0, dtype=bool)  # population rows whose evaluation failed
         self._samples = np.zeros((0, p.n_var + self._n_out))

@@ -11,6 +11,9 @@ the result into ``metrics.json`` (blocks ``heldout``, ``heldout_front``, ``floor
 
 from __future__ import annotations
 
+import logging
+import time
+
 import numpy as np
 
 from tmopt.physics import objectives as phys_obj
@@ -24,6 +27,11 @@ __all__ = ["QUANTITIES", "scores", "summary", "heldout_metrics", "floor_block"]
 QUANTITIES = ("convergence_time", "convergence_accuracy", "final_accuracy", "M",
               "M(7e-11)", "M(5e-11)")  # fmt: skip
 _STRICT = {"M(7e-11)": 7e-11, "M(5e-11)": 5e-11}
+#: Seconds between progress lines of a long scoring (a front of a few hundred designs x
+#: 32 seeds is minutes of simulation after the search's last line).
+PROGRESS_EVERY_S = 10.0
+
+log = logging.getLogger("tmopt.progress")
 
 
 def scores(problem, X: np.ndarray, seeds: np.ndarray) -> dict[str, np.ndarray]:
@@ -39,12 +47,18 @@ def scores(problem, X: np.ndarray, seeds: np.ndarray) -> dict[str, np.ndarray]:
     n, s = len(X), len(seeds)
     out: dict[str, list] = {}
     step = max(1, problem.chunk // max(1, s))
+    t0 = last = time.monotonic()
     for start in range(0, n, step):
         block = X[start:start + step]
         res = problem.simulate_designs(np.repeat(block, s, axis=0),
                                        seed=np.tile(seeds, len(block)))  # fmt: skip
         for key, v in _run_scores(problem, res).items():
             out.setdefault(key, []).append(v.reshape(len(block), s))
+        now = time.monotonic()
+        if now - last >= PROGRESS_EVERY_S:
+            log.info("held-out scoring: %d/%d designs x %d seeds (%.0f s)",
+                     start + len(block), n, s, now - t0)
+            last = now
     return {k: np.vstack(v) for k, v in out.items()}
 
 
@@ -95,6 +109,8 @@ def heldout_metrics(problem, X: np.ndarray, best: int, front: np.ndarray,
     seeds = heldout_seeds(problem.n_heldout)
     check_heldout(seeds, np.zeros(0) if used_seeds is None else used_seeds)
     rows = list(dict.fromkeys([int(best), *map(int, front)]))
+    log.info("held-out scoring: the chosen design and the front, %d designs x %d seeds",
+             len(rows), len(seeds))
     sc = scores(problem, X[rows], seeds)
     first = problem.objective_tms[0]
     heldout = {"n_seeds": int(len(seeds)), "seeds": [int(seeds[0]), int(seeds[-1])],

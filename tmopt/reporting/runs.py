@@ -25,6 +25,8 @@ from pathlib import Path
 
 from omegaconf import OmegaConf
 
+from tmopt.run.config import UNKNOWN, earlier_value
+
 COMPLETE, FAILED, INCOMPLETE = "complete", "failed", "incomplete"
 #: Config groups of tmopt/conf/ (their effective value is Hydra's recorded choice).
 GROUP_KEYS = ("problem", "algorithm", "surrogate", "scheme", "experiment")
@@ -75,8 +77,11 @@ class RunRecord:
     def value(self, key: str) -> str:
         """Effective value of a setting key (group choice or dotted config key) as text.
 
-        A key the run's configuration does not have (e.g. ``algorithm.batch_size`` of an
-        algorithm without that parameter) is ``""``, unlike a key set to null (``None``).
+        A key the run's configuration does not have is the value the run ran with when
+        the argument came after the run (the hash-neutral registries of
+        :mod:`tmopt.run.config`: :func:`~tmopt.run.config.earlier_value`), else ``""``
+        (e.g. ``algorithm.batch_size`` of an algorithm without that parameter), unlike a
+        key set to null (``None``).
         """
         if key in GROUP_KEYS:
             choice = self.choices.get(key) or self.overrides.get(key)
@@ -86,7 +91,13 @@ class RunRecord:
         node: object = self.config
         for part in key.split("."):
             if not isinstance(node, dict) or part not in node:
-                return str(self.overrides.get(key, ""))
+                if key in self.overrides:
+                    return str(self.overrides[key])
+                group = key.split(".", 1)[0]
+                earlier = earlier_value(group, node, part) \
+                    if isinstance(node, dict) and "." in key and key.count(".") == 1 \
+                    else UNKNOWN
+                return "" if earlier is UNKNOWN else _text(earlier)
             node = node[part]
         return _text(node)
 

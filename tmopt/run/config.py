@@ -42,6 +42,19 @@ CONSTRUCTOR_GROUP = "constructor"
 BUILT_ARGUMENTS = ("surrogate",)
 
 
+#: The PlatEMO-parity arguments added after runs were made (issue 24, part 4; the
+#: defaults are the fixes those runs had), by ``module.Class`` under tmopt.algorithms.
+PLATEMO_PARITY_ARGUMENTS: dict[str, tuple[str, ...]] = {
+    "ctsea.CTSEA": ("archive_copies", "fill_initial_elite", "collapsed_range", "weights"),
+    "cmoes.CMOES": ("switch_keeps_populations", "stale_feasible_mask", "reference"),
+    "ssde.SSDE": ("reseed_first_nodes", "reference"),
+    "kts.KTS": ("paired_convergence_test", "mixed_scale_deletion", "da_update",
+                "skip_evaluated", "kmeans_normalised", "reference"),
+    "pea.PEA": ("nan_ties", "random_fallback", "reference"),
+    "drlsaea.DRLSAEA": ("input_scaling", "same_budget_share", "per_set_reward"),
+}
+
+
 def _objectives_fixed(node: dict) -> bool:
     from tmopt.problems.suites import SCALABLE
 
@@ -60,6 +73,8 @@ HASH_NEUTRAL_ARGUMENTS: dict[tuple[str, str, str], Callable[[dict], bool] | None
     ("problem", "tmopt.problems.suites.PymooBenchmark", "front_points"): None,
     ("problem", "tmopt.problems.suites.PymooBenchmark", "n_obj"): _objectives_fixed,
     ("problem", "tmopt.problems.stiffness.StiffnessProblem", "information_constraints"): None,
+    **{("algorithm", f"tmopt.algorithms.{target}", key): None
+       for target, keys in PLATEMO_PARITY_ARGUMENTS.items() for key in keys},
 }
 #: Arguments added later whose earlier behaviour is a value other than their constructor
 #: default (the default being the new behaviour): at that value they stay out of
@@ -399,6 +414,26 @@ def _hash_inert_surrogate(data: dict) -> None:
         return
     if not takes:
         sur.update(INERT_SURROGATE_VALUES[sur["_target_"]])
+
+
+#: What :func:`earlier_value` returns for an argument the registries do not list.
+UNKNOWN = object()
+
+
+def earlier_value(group: str, node: dict, key: str) -> object:
+    """The value a run ran with whose configuration ``node`` (of config group ``group``)
+    does not name ``key`` because the argument came later: the constructor default for
+    :data:`HASH_NEUTRAL_ARGUMENTS`, the listed value for :data:`HASH_NEUTRAL_VALUES`
+    (where present), else :data:`UNKNOWN`.  The same rules keep those runs' hashes, so a
+    run that names the value and one made before the argument existed are one setting."""
+    target = node.get("_target_")
+    values = globals().get("HASH_NEUTRAL_VALUES", {})
+    if (group, target, key) in values:
+        return values[(group, target, key)]
+    applies = HASH_NEUTRAL_ARGUMENTS.get((group, target, key), UNKNOWN)
+    if applies is UNKNOWN or (applies is not None and not applies(node)):
+        return UNKNOWN
+    return _plain(constructor_parameters(get_class(target))[key].default)
 
 
 def config_hash(cfg: DictConfig) -> str:
