@@ -48,6 +48,7 @@ from __future__ import annotations
 import argparse
 import cProfile
 import inspect
+import json
 import os
 import pstats
 import sys
@@ -73,6 +74,12 @@ PROFILE_ROWS = (
     ("  of which: joint posterior (forward)", "posterior", None),
     ("  of which: backward (gradients)", "run_backward", None),
 )
+
+
+#: L-BFGS-B cap of the untimed fit before the timed iterations: the hyperparameters a run
+#: has warm-started through dozens of fits by then are near an optimum, not 50 steps from
+#: BoTorch's initial values.
+PREVIOUS_FIT_MAX_ITER = 200
 
 
 def load() -> str:
@@ -118,6 +125,11 @@ def stiffness_archive(n: int, path: Path | None = None):
     problem = StiffnessProblem()
     if path is not None:
         data = read_archive(path)
+        config = path.parent / "config.yaml"
+        if config.exists():  # the run's own problem (e.g. noise=information, Table 3)
+            from tmopt.run.build import build_problem
+
+            problem = build_problem(OmegaConf.load(config))
         if data.X.shape[1] != problem.n_var or len(data.X) < n:
             sys.exit(f"bench_speed: --archive {path} must hold >= {n} designs of the "
                      f"stiffness problem (scheme B, k = 3: {problem.n_var} variables), "
@@ -150,9 +162,11 @@ def time_qlognehvi(name: str, problem, data, n: int, iters: int, profile: bool =
 
     tell(0, n - 5)
     Y, _ = alg._training_targets()
+    cap, alg.gp.max_iter = alg.gp.max_iter, max(alg.gp.max_iter, PREVIOUS_FIT_MAX_ITER)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         alg.gp.fit(alg.U, Y)  # the previous iteration's fit, the warm start of the next
+    alg.gp.max_iter = cap
     tell(n - 5, n)
     alg.iteration = 1
     ev = Evaluator(problem, 10**9)
@@ -164,13 +178,18 @@ def time_qlognehvi(name: str, problem, data, n: int, iters: int, profile: bool =
             X = alg.ask()
             if prof:
                 prof.disable()
+        with Clock() as sim:  # the q designs' evaluation (simulator), outside the profile
+            batch = ev.evaluate(X)
         rows.append({"cpu": c.cpu, "wall": c.wall, "stage": alg.gp.fit_info.get("stage"),
+                     "sim_cpu": sim.cpu, "sim_wall": sim.wall,
                      **{k: round(v, 2) for k, v in alg.timing.items()}})
-        alg.tell(ev.evaluate(X))
+        alg.tell(batch)
     out = {"cpu": float(np.mean([r["cpu"] for r in rows])),
-           "wall": float(np.mean([r["wall"] for r in rows])), "rows": rows}
+           "wall": float(np.mean([r["wall"] for r in rows])), "rows": rows,
+           "sim_cpu": float(np.mean([r["sim_cpu"] for r in rows]))}
     if prof:
         out["profile"] = profile_table(prof, iters)
+        out["profile"]["simulator (q designs evaluated; CPU s)"] = out["sim_cpu"]
     return out
 
 
@@ -183,7 +202,70 @@ def profile_table(prof: cProfile.Profile, iters: int) -> dict[str, float]:
                 if (name == func or (file is None and func in name))
                 and (file is None or f.endswith(file))]
         out[label] = max((v[3] for v in hits), default=0.0) / iters
+    top = [lb for lb, _, _ in PROFILE_ROWS if not lb.startswith(" ")]
+    out["other (total - the rows above)"] = out["total"] - sum(out[lb] for lb in top)
     return out
+
+
+def guard_fit_quality(problem, data, sizes, caps) -> None:
+    """What capping a guard-triggered re-fit costs the GPs (``gp_guard_max_iter``): at each
+    size n, the GPs are fitted on the first n - 5 designs (PREVIOUS_FIT_MAX_ITER, the
+    previous optimum), then the guard re-fits them on n designs with each cap; printed:
+    CPU s, the L-BFGS-B iterations, the optimised objective (negative log marginal
+    likelihood + priors, per data point, summed over the outputs; lower is better) and
+    the mean negative log predictive density (NLPD) and RMSE of the next 25 designs of the
+    archive (the ones the run's acquisition chose next), targets as the algorithm scales
+    them, a predictive std floor of 1e-3 of the output's spread."""
+    import copy
+
+    import tmopt.surrogates.gp as gpmod
+    from tmopt.evaluation.evaluator import EvaluatedBatch
+    from tmopt.surrogates.gp import GPSurrogate
+
+    fvals: list[float] = []
+    scipy_fit = gpmod.fit_gpytorch_mll_scipy
+
+    def recording(mll, **kwargs):
+        result = scipy_fit(mll, **kwargs)
+        fvals.append(float(result.fval))
+        return result
+
+    print("\nGuard-triggered GP re-fit, capped (gp_guard_max_iter): CPU s, objective, "
+          "prediction of the next 25 designs\n")
+    print("| n | cap | CPU s | L-BFGS-B iterations per output | -log ML / n (sum) | "
+          "NLPD next 25 | RMSE / std next 25 |")
+    print("|---|---|---|---|---|---|---|")
+    gpmod.fit_gpytorch_mll_scipy = recording
+    try:
+        for n in sizes:
+            alg = algorithm_from_yaml("qlognehvi")
+            alg.setup(problem, budget=n + 30, seed=0)
+            alg.tell(EvaluatedBatch(X=data.X[:n + 25], F=data.F[:n + 25], G=data.G[:n + 25],
+                                    failed=data.failed[:n + 25], reason=[""] * (n + 25)))
+            Y, _ = alg._training_targets()
+            U = alg.U
+            base = GPSurrogate(max_iter=PREVIOUS_FIT_MAX_ITER, refit_every=5,
+                               refit_guard=1e-12, rbf_fallback=False)  # the guard always fires
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                base.fit(U[:n - 5], Y[:n - 5])
+                for cap in caps:
+                    gp = copy.deepcopy(base)
+                    gp.max_iter, gp.guard_max_iter = alg.gp_max_iter, cap
+                    fvals.clear()
+                    with Clock() as c:
+                        gp.fit(U[:n], Y[:n])
+                    mean, std = gp.predict(U[n:n + 25])
+                    y, spread = Y[n:n + 25], Y[:n].std(axis=0)
+                    spread = np.where(spread > 0, spread, 1.0)  # a constant output
+                    s = np.sqrt(std ** 2 + (1e-3 * spread) ** 2)
+                    nlpd = 0.5 * np.log(2 * np.pi * s ** 2) + 0.5 * ((y - mean) / s) ** 2
+                    rmse = np.sqrt(((y - mean) ** 2).mean(axis=0)) / spread
+                    print(f"| {n} | {cap} | {c.cpu:.1f} | {gp.fit_info['iterations']} | "
+                          f"{sum(fvals):.4f} | {nlpd.mean():.3f} | {rmse.mean():.3f} |",
+                          flush=True)
+    finally:
+        gpmod.fit_gpytorch_mll_scipy = scipy_fit
 
 
 def acquisition_call_ms(problem, data, n: int) -> dict[str, float]:
@@ -236,7 +318,7 @@ def acquisition_call_ms(problem, data, n: int) -> dict[str, float]:
 
 
 def section_qlognehvi(sizes, quick: bool, profile: bool, archive: Path | None = None,
-                      variants: list[str] | None = None) -> float:
+                      variants: list[str] | None = None, iters: int | None = None) -> float:
     import logging
 
     logging.getLogger("tmopt.algorithms.qlognehvi").setLevel(logging.ERROR)  # no run notice
@@ -247,7 +329,8 @@ def section_qlognehvi(sizes, quick: bool, profile: bool, archive: Path | None = 
     print(f"\n## qLogNEHVI per iteration, stiffness problem (scheme B, k = 3, D = 18); "
           f"archive: {source}; {load()}\n")
     every = {"new": ("qlognehvi", {}), "reference": ("qlognehvi_reference", {}),
-             "reference, max_baseline=64": ("qlognehvi_reference", {"max_baseline": 64})}
+             "reference, max_baseline=64": ("qlognehvi_reference", {"max_baseline": 64}),
+             "new, max_baseline=64": ("qlognehvi", {"max_baseline": 64})}
     variants = {k: every[k] for k in (variants or list(every)[:2 if quick else 3])}
     cycle = algorithm_from_yaml("qlognehvi").refit_every
     per: dict[str, dict[int, dict]] = {v: {} for v in variants}
@@ -255,11 +338,11 @@ def section_qlognehvi(sizes, quick: bool, profile: bool, archive: Path | None = 
     print("|---|---|---|---|---|---|")
     for n in sizes:
         for label, (name, over) in variants.items():
-            iters = cycle if label == "new" else 1
-            r = time_qlognehvi(name, problem, data, n, iters, profile, **over)
+            k = (iters or cycle) if label.startswith("new") else 1
+            r = time_qlognehvi(name, problem, data, n, k, profile, **over)
             per[label][n] = r
             stages = ", ".join(f"{x['stage']} {x['cpu']:.1f}" for x in r["rows"])
-            print(f"| {n} | {label} | {iters} | {r['cpu']:.2f} | {r['wall']:.2f} | {stages} |",
+            print(f"| {n} | {label} | {k} | {r['cpu']:.2f} | {r['wall']:.2f} | {stages} |",
                   flush=True)
     if profile:
         print_profiles(per, sizes)
@@ -273,21 +356,29 @@ def section_qlognehvi(sizes, quick: bool, profile: bool, archive: Path | None = 
             print(f"| {n} | {a['baseline']} | {a['gpytorch f+g']:.1f} | {a['cached f+g']:.1f} "
                   f"| {a['gpytorch f+g'] / a['cached f+g']:.1f} | {a['gpytorch raw']:.0f} | "
                   f"{a['cached raw']:.0f} | {a['gpytorch raw'] / a['cached raw']:.1f} |")
-    if "new" not in per or "reference" not in per:
+    pairs = [(r, v) for r, v in (("reference", "new"),
+                                 ("reference, max_baseline=64", "new, max_baseline=64"))
+             if r in per and v in per]
+    if not pairs:
         return float("nan")
-    ratios = {n: per["reference"][n]["cpu"] / per["new"][n]["cpu"] for n in sizes}
-    print("\nper-iteration ratio reference / new: "
-          + ", ".join(f"n={n}: {r:.1f}" for n, r in ratios.items()))
-    if quick or len(sizes) < 2 or "reference, max_baseline=64" not in per:
-        return ratios[max(sizes)]
+    for ref, new in pairs:
+        ratios = {n: per[ref][n]["cpu"] / per[new][n]["cpu"] for n in sizes}
+        print(f"\nper-iteration ratio {ref} / {new}: "
+              + ", ".join(f"n={n}: {r:.1f}" for n, r in ratios.items()))
+    ref, new = pairs[0]
+    if quick or len(sizes) < 2:
+        return ratios[max(sizes)] if len(pairs) == 1 else \
+            per[ref][max(sizes)]["cpu"] / per[new][max(sizes)]["cpu"]
     runs = {label: per_run(problem, {n: per[label][n]["cpu"] for n in sizes})
             for label in variants}
     for label, seconds in runs.items():
         print(f"per-run estimate ({label}): {seconds / 60:.1f} min CPU for 697 evaluations")
-    capped = runs["reference, max_baseline=64"] / runs["new"]
-    print(f"per-run ratio: reference / new = {runs['reference'] / runs['new']:.1f}; "
-          f"capped reference (Table 3) / new = {capped:.1f}")
-    return runs["reference"] / runs["new"]
+    for r, v in pairs:
+        print(f"per-run ratio: {r} / {v} = {runs[r] / runs[v]:.1f}")
+    if "reference, max_baseline=64" in runs and "new" in runs:
+        print(f"per-run ratio: capped reference (Table 3) / new = "
+              f"{runs['reference, max_baseline=64'] / runs['new']:.1f}")
+    return runs[ref] / runs[new]
 
 
 def per_run(problem, cpu_at: dict[int, float], budget: int = 697, q: int = 5) -> float:
@@ -299,13 +390,56 @@ def per_run(problem, cpu_at: dict[int, float], budget: int = 697, q: int = 5) ->
     return float(np.interp(sizes, xs, [cpu_at[x] for x in xs]).sum())
 
 
+#: A progress line of a qLogNEHVI run: designs so far, the fit's stage and guard statistic.
+_PROGRESS = r"evals (\d+)/\d+ .*iteration=\d+ fit=[\d.]+s acq=[\d.]+s gp=(\w+)( surprise=([\d.]+))?"
+
+
+def run_cost_from_log(log: Path, costs: dict, guard: float = 4.0) -> None:
+    """CPU minutes of a whole qLogNEHVI run from per-iteration costs and the run's own
+    stage sequence (docs/speed.md, "Per run in the Table 3 setting").
+
+    Every iteration of the run's ``tmopt.log`` gives its number of designs n and its fit
+    stage: kept, re-fitted because the guard fired (surprise > ``guard``), or re-fitted by
+    the schedule. Its cost = ``acq(n)`` + the stage's fit cost at n (``kept``, ``fit50``
+    for a full re-fit, ``fit10`` for a capped guard re-fit after gp_guard_max_iter), each
+    interpolated linearly between the measured sizes (constant outside); the reference's
+    ``ref(n)`` likewise. ``costs``: {key: {n: CPU s}} for acq, kept, fit50, fit10, ref.
+    """
+    import re
+
+    stages = []
+    for line in log.read_text().splitlines():
+        m = re.search(_PROGRESS, line)
+        if m:
+            surprise = None if m[4] is None else float(m[4])
+            kind = "kept" if m[2] == "kept_hypers" else (
+                "guard" if surprise is not None and surprise > guard else "scheduled")
+            stages.append((int(m[1]) - 5, kind))  # the fit saw the designs before its batch
+
+    def at(key: str, n: int) -> float:
+        xs = sorted(int(x) for x in costs[key])
+        return float(np.interp(n, xs, [costs[key][str(x)] for x in xs]))
+
+    fit = {"before": {"kept": "kept", "guard": "fit50", "scheduled": "fit50"},
+           "after": {"kept": "kept", "guard": "fit10", "scheduled": "fit50"}}
+    total = {v: sum(at("acq", n) + at(fit[v][k], n) for n, k in stages) for v in fit}
+    total["reference"] = sum(at("ref", n) for n, _ in stages)
+    counts = {k: sum(1 for _, s in stages if s == k) for k in ("kept", "guard", "scheduled")}
+    print(f"\n{len(stages)} iterations ({counts}); CPU min per run: "
+          + ", ".join(f"{v} {t / 60:.1f}" for v, t in total.items()))
+    print(f"R1 per run: reference / before = {total['reference'] / total['before']:.1f}, "
+          f"reference / after = {total['reference'] / total['after']:.1f}")
+
+
 def print_profiles(per: dict, sizes) -> None:
     print("\nWhere an iteration's time goes (cProfile, wall seconds per iteration, "
           "cumulative; nested rows overlap):\n")
     cols = [(label, n) for n in sizes for label in per]
     print("| part | " + " | ".join(f"{lb} n={n}" for lb, n in cols) + " |")
     print("|---|" + "---|" * len(cols))
-    for row in ("total", *(lb for lb, _, _ in PROFILE_ROWS)):
+    rows = ("total", *(lb for lb, _, _ in PROFILE_ROWS), "other (total - the rows above)",
+            "simulator (q designs evaluated; CPU s)")
+    for row in rows:
         print(f"| {row} | " + " | ".join(f"{per[lb][n]['profile'][row]:.2f}"
                                          for lb, n in cols) + " |")
 
@@ -539,16 +673,35 @@ def main() -> None:
                     help="archive.h5 of a stiffness run (scheme B, k = 3) to time qLogNEHVI "
                          "on, e.g. a qLogNEHVI run's; default: an MGSAEA-IPC/RBF run's")
     ap.add_argument("--variants", nargs="+", default=None,
-                    choices=["new", "reference", "reference, max_baseline=64"],
+                    choices=["new", "reference", "reference, max_baseline=64",
+                             "new, max_baseline=64"],
                     help="qLogNEHVI variants to time (default: all the mode has)")
+    ap.add_argument("--guard-fits", type=int, nargs="+", default=None, metavar="CAP",
+                    help="instead of timing iterations: the guard-triggered GP re-fit with "
+                         "these L-BFGS-B caps at each --sizes (needs --archive; "
+                         "gp_guard_max_iter's evidence in docs/speed.md)")
+    ap.add_argument("--run-cost", type=Path, nargs=2, default=None, metavar=("LOG", "COSTS"),
+                    help="per-run CPU of a qLogNEHVI run from its tmopt.log's stages and a "
+                         "JSON file of per-iteration costs (run_cost_from_log)")
+    ap.add_argument("--iters", type=int, default=None,
+                    help="iterations of the default settings per size (default: one refit "
+                         "cycle, refit_every); the reference variants run one")
     args = ap.parse_args()
     sizes = args.sizes or ([300] if args.quick else [100, 300, 500, 697])
     if min(sizes) < 50 or max(sizes) > 697:
         sys.exit(f"bench_speed: --sizes must be in [50, 697], got {sizes}")
     print(f"bench_speed ({'quick' if args.quick else 'full'}): {load()}, "
           f"cores {os.cpu_count()}")
+    if args.run_cost:
+        run_cost_from_log(args.run_cost[0], json.loads(args.run_cost[1].read_text()))
+        return
+    if args.guard_fits:
+        problem, data = stiffness_archive(max(sizes) + 25, args.archive)
+        guard_fit_quality(problem, data, sizes, args.guard_fits)
+        return
     with Clock() as total:
-        r1 = section_qlognehvi(sizes, args.quick, args.profile, args.archive, args.variants) \
+        r1 = section_qlognehvi(sizes, args.quick, args.profile, args.archive, args.variants,
+                               args.iters) \
             if "qlognehvi" in args.section else float("nan")
         r2 = section_gp(args.quick) if "gp" in args.section else float("nan")
         t, r3 = section_sim(args.quick) if "sim" in args.section else (float("nan"),) * 2

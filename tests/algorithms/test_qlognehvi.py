@@ -346,10 +346,10 @@ def test_the_reference_yaml_pins_the_earlier_settings_and_keeps_their_config_has
     node = OmegaConf.to_container(option_config("algorithm", "qlognehvi_reference"))
     alg = QLogNEHVI(**{k: v for k, v in node.items() if not k.startswith("_")})
     assert (alg.cached_posterior, alg.init_batch_limit, alg.refit_every, alg.refit_guard,
-            alg.prune_samples) == (False, None, 1, None, None)
+            alg.prune_samples, alg.gp_guard_max_iter) == (False, None, 1, None, None, None)
     assert (alg.raw_samples, alg.acq_maxiter, alg.gp_max_iter) == (128, 100, 200)
     added = ("cached_posterior", "init_batch_limit", "refit_every", "refit_guard",
-             "prune_samples", "max_baseline")
+             "prune_samples", "max_baseline", "gp_guard_max_iter")
     earlier = {k: v for k, v in node.items() if k not in added}
     # the default surrogate group (unused by qLogNEHVI) as earlier runs had it
     gp = OmegaConf.to_container(option_config("surrogate", "gp"))
@@ -365,6 +365,38 @@ def test_the_reference_yaml_pins_the_earlier_settings_and_keeps_their_config_has
     default = OmegaConf.to_container(option_config("algorithm", "qlognehvi"))
     assert config_hash(OmegaConf.create({**run, "algorithm": default})) \
         != config_hash(OmegaConf.create({**run, "algorithm": earlier}))
+
+
+def test_runs_before_gp_guard_max_iter_keep_their_hash_with_it_at_null():
+    """Runs of the default made before gp_guard_max_iter existed (no key) hash like the
+    default (null), not like the capped setting (10)."""
+    from omegaconf import OmegaConf
+
+    from tmopt.run.cli import option_config
+    from tmopt.run.config import config_hash
+
+    default = OmegaConf.to_container(option_config("algorithm", "qlognehvi"))
+    assert default["gp_guard_max_iter"] is None is QLogNEHVI().gp_guard_max_iter
+    before = {k: v for k, v in default.items() if k != "gp_guard_max_iter"}
+    run = {"seed": 0, "budget": 697, "problem": {"_target_": "x.Problem"}}
+    old = config_hash(OmegaConf.create({**run, "algorithm": before}))
+    assert config_hash(OmegaConf.create({**run, "algorithm": default})) == old
+    assert config_hash(OmegaConf.create(
+        {**run, "algorithm": {**default, "gp_guard_max_iter": 10}})) != old
+    # the GP surrogate's own guard_max_iter (null by default) leaves every run's hash alone
+    gp = OmegaConf.to_container(option_config("surrogate", "gp"))
+    assert "guard_max_iter" in gp and gp["guard_max_iter"] is None
+    without = {k: v for k, v in gp.items() if k != "guard_max_iter"}
+    assert config_hash(OmegaConf.create({**run, "algorithm": before, "surrogate": gp})) \
+        == config_hash(OmegaConf.create({**run, "algorithm": before, "surrogate": without}))
+
+
+def test_gp_guard_max_iter_reaches_the_gp_and_is_checked():
+    alg = QLogNEHVI(gp_guard_max_iter=7, **FAST)
+    alg.setup(PymooBenchmark("mw3", n_var=4), budget=20, seed=0)
+    assert alg.gp.guard_max_iter == 7 and alg.gp.max_iter == alg.gp_max_iter
+    with pytest.raises(AlgorithmConfigError, match="gp_guard_max_iter"):
+        QLogNEHVI(gp_guard_max_iter=0)
 
 
 def test_refit_every_keeps_the_gps_between_optimisations_and_checkpoints_them(tmp_path):

@@ -74,7 +74,7 @@ def test_lockstep_runs_have_the_bits_of_runs_alone(controller, jacobian, y_filte
                            control=ControllerSettings(jacobian=jacobian,
                                                  y_derivative_filter=y_filter))
     t = sample_times(cfg.duration, cfg.sample_rate)
-    b = 21  # two groups of 16 lanes with lanes=16, the second padded
+    b = 21  # with lanes=16: a group of 16 lanes, then 5 runs in 8 lanes (3 padded)
     refs = _references(b, t, seed=3, big=4)
     seeds = np.array([0, 1, 2, 5, 1] * 4 + [7], dtype=np.int64)
     new, old = _both(cfg, refs, seeds, lanes=16)

@@ -149,6 +149,32 @@ def test_refit_guard_reoptimises_at_once_when_the_new_points_surprise_the_model(
     assert unguarded.fit_info["stage"] == "kept_hypers" and "surprise" not in unguarded.fit_info
 
 
+def test_guard_max_iter_caps_only_the_refits_the_guard_triggers(smooth3):
+    """A guard-triggered re-optimisation runs at most guard_max_iter L-BFGS-B iterations
+    per output from the last optimum; the first (cold) and the scheduled fits keep
+    max_iter, and without the option the guard's refit is capped like any other."""
+    X, Y, f = smooth3
+    rng = np.random.default_rng(9)
+    same, jump = rng.uniform(-1, 2, size=(4, 4)), rng.uniform(-1, 2, size=(4, 4))
+    X1, Y1 = np.vstack([X, same]), np.vstack([Y, f(same)])
+    X2, Y2 = np.vstack([X1, jump]), np.vstack([Y1, f(jump) + [0.0, 0.0, 40.0]])
+    stages = {}
+    for cap in (None, 2):
+        model = GPSurrogate(refit_every=5, refit_guard=4.0, max_iter=60, guard_max_iter=cap)
+        model.fit(X, Y)
+        assert max(model.fit_info["iterations"]) > 2       # the cold fit: max_iter
+        model.fit(X1, Y1)
+        assert model.fit_info["stage"] == "kept_hypers"
+        model.fit(X2, Y2)                                  # the guard fires
+        info = model.fit_info
+        assert info["stage"] == "mll" and info["surprise"] > 4.0 and info["guard"]
+        stages[cap] = info["iterations"]
+        model._since_opt = model.refit_every               # the next fit is a scheduled one
+        model.fit(X2, Y2)
+        assert "guard" not in model.fit_info and max(model.fit_info["iterations"]) > 2
+    assert max(stages[2]) <= 2 and max(stages[None]) > 2
+
+
 def test_the_guard_statistic_is_the_leave_one_out_error_by_brute_force(smooth3):
     """R&W Eq. 5.12 against explicit solves without each point (same hyperparameters, same
     standardisation): mean z^2 at the new points over mean z^2 at the others."""

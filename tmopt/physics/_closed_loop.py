@@ -1052,9 +1052,12 @@ def batch_kernel(
     groups = -(-n_runs // lanes)
     for gi in nb.prange(groups):
         i0 = gi * lanes
+        nl = min(lanes, n_runs - i0)
+        # the last group only as wide as its runs need (a multiple of LANE_ALIGN): with two
+        # threads, 100 runs are 56 + 48 lanes, not 2 x 56 (12 padded lanes computed)
         run_group(
-            i0, min(lanes, n_runs - i0), lanes, ref1, ref2, refy, noise, noise_of, par, c0,
-            b0, out_ch, out_th, out_gain, summary, status, record,
+            i0, nl, -(-nl // LANE_ALIGN) * LANE_ALIGN, ref1, ref2, refy, noise, noise_of,
+            par, c0, b0, out_ch, out_th, out_gain, summary, status, record,
         )
 
 

@@ -86,7 +86,9 @@ HASH_NEUTRAL_VALUES: dict[tuple[str, str, str], object] = {
     ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "refit_every"): 1,
     ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "refit_guard"): None,
     ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "prune_samples"): None,
+    ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "gp_guard_max_iter"): None,
     ("surrogate", "tmopt.surrogates.gp.GPSurrogate", "refit_guard"): None,
+    ("surrogate", "tmopt.surrogates.gp.GPSurrogate", "guard_max_iter"): None,
 }
 #: For an algorithm that takes no surrogate, the surrogate group changes no number, yet it
 #: is part of every configuration: it is hashed with these arguments at the values that

@@ -36,7 +36,9 @@ Choices (see docs/surrogates.md):
   not see, z_i^2 = [K^-1 (y - c)]_i^2 / [K^-1]_ii (Rasmussen & Williams 2006, Eq. 5.12),
   exceeds ``refit_guard`` times its mean over the other points, the hyperparameters are
   re-optimised at once. A ratio, so it neither fires on a model that is uniformly
-  imperfect (step-like objectives) nor changes when the targets are rescaled.
+  imperfect (step-like objectives) nor changes when the targets are rescaled. Such a
+  re-optimisation before its turn may be capped lower (``guard_max_iter``): it starts
+  from the last optimum, and the scheduled one continues with ``max_iter``.
 * Prediction: the posterior mean and variance (Rasmussen & Williams 2006, Eqs. 2.25-2.26)
   are computed from the Cholesky factor cached at fit time, with the model's own kernel
   module, without forming a q x q covariance.
@@ -129,6 +131,8 @@ class GPSurrogate(Surrogate):
         rbf_fallback: Fall back to :class:`RBFSurrogate` if every GP stage fails.
         seed: Seeds the restarts, so the same data and seed give the same model.
         num_threads: torch threads inside fit/predict (restored after); 0 = torch's setting.
+        guard_max_iter: L-BFGS-B cap of a re-optimisation that the guard triggers before
+            its turn (warm-started from the last optimum); None = ``max_iter``.
     """
 
     name = "gp"
@@ -137,7 +141,7 @@ class GPSurrogate(Surrogate):
                  max_iter: int = 200, refit_every: int = 5, max_attempts: int = 2,
                  fit_mode: str = "per_output",
                  rbf_fallback: bool = True, seed: int = 0, num_threads: int = 1,
-                 refit_guard: float | None = 4.0) -> None:
+                 refit_guard: float | None = 4.0, guard_max_iter: int | None = None) -> None:
         if kernel not in KERNELS:
             raise ValueError(f"kernel={kernel!r} is invalid: must be one of {KERNELS}")
         if fit_mode not in FIT_MODES:
@@ -149,6 +153,10 @@ class GPSurrogate(Surrogate):
         _check_int("max_attempts", max_attempts, 1)
         _check_int("seed", seed, 0)
         _check_int("num_threads", num_threads, 0)
+        if guard_max_iter is not None:
+            _check_int("guard_max_iter", guard_max_iter, 1)
+        self.guard_max_iter = guard_max_iter
+        self._guard_fired = False  # the current fit re-optimises because the guard fired
         if refit_guard is not None and not (isinstance(refit_guard, (int, float))
                                             and 0.0 < refit_guard < float("inf")):
             raise ValueError(f"refit_guard={refit_guard!r} is invalid: must be None or a "
@@ -215,9 +223,12 @@ class GPSurrogate(Surrogate):
         new = self._new_rows(X)
         self._model, self._caches, self._fallback, self._d = None, [], None, None
         Xt, Yt = torch.as_tensor(X, dtype=_DTYPE), torch.as_tensor(Y, dtype=_DTYPE)
-        self._surprise_seen = None
+        self._surprise_seen, self._guard_fired = None, False
         if not self._keep_hyperparameters(Xt, Yt, new):
             self._fit_stages(X, Y, Xt, Yt)
+            if self._guard_fired:  # re-optimised before its turn (capped: guard_max_iter)
+                self.fit_info["guard"] = True
+        self._guard_fired = False
         self._d, self._X_fit = X.shape[1], X.copy()
         self.fit_info["seconds"] = time.perf_counter() - start
         if self._surprise_seen is not None:  # the guard's statistic, refit or not
@@ -265,6 +276,7 @@ class GPSurrogate(Surrogate):
                 log.info("GP refit before its turn: mean squared standardised LOO error "
                          "at the new points %.3g x that at the others > refit_guard %.3g",
                          surprise, self.refit_guard)
+                self._guard_fired = True
                 return False
         self._since_opt += 1
         self.fit_info.update(stage="kept_hypers", noise_floor=self.noise_floor)
@@ -367,7 +379,14 @@ class GPSurrogate(Surrogate):
         with torch.random.fork_rng():  # seeded restarts, global RNG left untouched
             torch.manual_seed(self.seed)
             fit_gpytorch_mll(mll, optimizer=optimizer, max_attempts=self.max_attempts,
-                             optimizer_kwargs={"options": {"maxiter": self.max_iter}})
+                             optimizer_kwargs={"options": {"maxiter": self._max_iter_now()}})
+
+    def _max_iter_now(self) -> int:
+        """The L-BFGS-B cap of this fit: ``guard_max_iter`` for a warm re-optimisation that
+        the guard triggered before its turn, else ``max_iter``."""
+        short = self._guard_fired and self.guard_max_iter is not None \
+            and self.fit_info.get("warm_started")
+        return self.guard_max_iter if short else self.max_iter
 
     def _optimise_per_output(self, model: SingleTaskGP, X: torch.Tensor, Y: torch.Tensor,
                              floor: float) -> None:
