@@ -316,3 +316,18 @@ def test_a_parameter_added_later_reads_as_its_default_in_older_runs(tmp_path):
     assert runs["old"].value(key) == runs["new"].value(key) == "noise_free"
     assert runs["other"].value(key) == "noise_seed"
     assert runs["old"].value("problem.no_such_parameter") == ""  # not a parameter: absent
+
+
+def test_an_argument_whose_earlier_behaviour_is_not_its_default_reads_as_that_value(tmp_path):
+    # HASH_NEUTRAL_VALUES: an older qLogNEHVI run without gp_guard_max_iter ran uncapped
+    # (None), whatever the constructor's default is now; a run naming 10 is another setting.
+    for name, cap in (("old", "absent"), ("capped", 10)):
+        path = _run(tmp_path, name, {"seed": 0}, algorithm="qlognehvi")
+        config = json.loads((path / "config.yaml").read_text())
+        config["algorithm"] = {"_target_": "tmopt.algorithms.qlognehvi.QLogNEHVI"}
+        if cap != "absent":
+            config["algorithm"]["gp_guard_max_iter"] = cap
+        (path / "config.yaml").write_text(json.dumps(config))
+    runs = {r.name: r for r in discover_runs(tmp_path)}
+    assert runs["old"].value("algorithm.gp_guard_max_iter") == "None"
+    assert runs["capped"].value("algorithm.gp_guard_max_iter") == "10"

@@ -423,13 +423,12 @@ UNKNOWN = object()
 def earlier_value(group: str, node: dict, key: str) -> object:
     """The value a run ran with whose configuration ``node`` (of config group ``group``)
     does not name ``key`` because the argument came later: the constructor default for
-    :data:`HASH_NEUTRAL_ARGUMENTS`, the listed value for :data:`HASH_NEUTRAL_VALUES`
-    (where present), else :data:`UNKNOWN`.  The same rules keep those runs' hashes, so a
+    :data:`HASH_NEUTRAL_ARGUMENTS`, the listed value for :data:`HASH_NEUTRAL_VALUES`,
+    else :data:`UNKNOWN`.  The same rules keep those runs' hashes, so a
     run that names the value and one made before the argument existed are one setting."""
     target = node.get("_target_")
-    values = globals().get("HASH_NEUTRAL_VALUES", {})
-    if (group, target, key) in values:
-        return values[(group, target, key)]
+    if (group, target, key) in HASH_NEUTRAL_VALUES:
+        return HASH_NEUTRAL_VALUES[(group, target, key)]
     applies = HASH_NEUTRAL_ARGUMENTS.get((group, target, key), UNKNOWN)
     if applies is UNKNOWN or (applies is not None and not applies(node)):
         return UNKNOWN
