@@ -123,7 +123,7 @@ def test_same_seed_same_archive():
 
 @pytest.mark.parametrize("kwargs, text", [
     ({"pop_size": 1}, "pop_size must be an integer >= 2, got 1"),
-    ({"operator": "pso"}, r"operator must be one of \('ga', 'de'\), got 'pso'"),
+    ({"operator": "pso"}, "operator must be one of ga, de, got 'pso'"),
     ({"stage_ratio": 2}, r"stage_ratio must be a finite number in \[0.0, 1.0\], got 2"),
     ({"mutation_eta": -1}, r"mutation_eta must be a finite number in \[0.0, inf\), got -1"),
 ])

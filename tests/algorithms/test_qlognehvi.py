@@ -161,7 +161,7 @@ def test_seconds_per_iteration_at_300_points_d18():
     ({"n_init": 1}, "n_init must be an integer >= 2, got 1"),
     ({"raw_samples": 0}, "raw_samples must be an integer >= 1, got 0"),
     ({"eta": 0.0}, r"eta must be a finite number in \(0.0, inf\), got 0.0"),
-    ({"kernel": "linear"}, r"kernel must be one of \('rbf', 'matern52'\), got 'linear'"),
+    ({"kernel": "linear"}, "kernel must be one of rbf, matern52, got 'linear'"),
     ({"threads": 0}, "threads must be an integer >= 1, got 0"),
     ({"max_iter": -1}, "max_iter must be an integer >= 0, got -1"),
     ({"max_baseline": 0}, "max_baseline must be an integer >= 1, got 0"),
@@ -170,7 +170,7 @@ def test_seconds_per_iteration_at_300_points_d18():
     ({"prune_samples": 0}, "prune_samples must be an integer >= 1, got 0"),
     ({"refit_guard": 0.0}, r"refit_guard must be a finite number in \(0.0, inf\), got 0.0"),
     ({"ref_point": "ideal"},
-     r"ref_point must be one of \('feasible', 'front', 'all'\), got 'ideal'"),
+     "ref_point must be one of feasible, front, all, got 'ideal'"),
 ])
 def test_bad_arguments_are_named(kwargs, text):
     with pytest.raises(AlgorithmConfigError, match="qlognehvi: " + text):

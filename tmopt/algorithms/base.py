@@ -199,6 +199,14 @@ def check_int(algorithm: str, label: str, value, minimum: int) -> int:
     return int(value)
 
 
+def check_choice(algorithm: str, label: str, value, allowed: tuple[str, ...]) -> str:
+    """``value``, or :class:`AlgorithmConfigError` unless it is one of ``allowed``."""
+    if value not in allowed:
+        raise AlgorithmConfigError(f"algorithm {algorithm}: {label} must be one of "
+                                   f"{', '.join(allowed)}, got {value!r}")
+    return value
+
+
 def check_number(algorithm: str, label: str, value, low: float, high: float = np.inf,
                  low_open: bool = False) -> float:
     """``value`` as a float, or :class:`AlgorithmConfigError` unless in [low, high].

@@ -62,7 +62,7 @@ from math import ceil
 
 import numpy as np
 
-from tmopt.algorithms.base import Algorithm, AlgorithmConfigError, check_number
+from tmopt.algorithms.base import Algorithm, check_choice, check_number
 from tmopt.algorithms.mgsaea import AlgorithmStateError
 from tmopt.algorithms.operators.survival import (
     environmental_selection,
@@ -158,13 +158,8 @@ class CMOES(Algorithm):
                  normalise: bool = True, switch_keeps_populations: bool = False,
                  stale_feasible_mask: bool = False, reference: str = "tmopt") -> None:
         super().__init__(pop_size=pop_size)
-        if operator not in OPERATORS:
-            raise AlgorithmConfigError(f"algorithm {self.name}: operator must be one of "
-                                       f"{OPERATORS}, got {operator!r}")
-        if reference not in REFERENCES:
-            raise AlgorithmConfigError(f"algorithm {self.name}: reference must be one of "
-                                       f"{', '.join(REFERENCES)}, got {reference!r}")
-        self.reference = reference
+        check_choice(self.name, "operator", operator, OPERATORS)
+        self.reference = check_choice(self.name, "reference", reference, REFERENCES)
         if reference == "platemo":  # every documented fix undone (PLATEMO_SETTINGS)
             switch_keeps_populations = stale_feasible_mask = True
             normalise = False

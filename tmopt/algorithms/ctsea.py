@@ -56,7 +56,7 @@ from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
 from pymoo.util.ref_dirs import get_reference_directions
 from scipy.spatial.distance import cdist
 
-from tmopt.algorithms.base import Algorithm, AlgorithmConfigError
+from tmopt.algorithms.base import Algorithm, AlgorithmConfigError, check_choice
 from tmopt.algorithms.mgsaea import AlgorithmStateError
 from tmopt.algorithms.operators.survival import environmental_selection, spea2_fitness
 from tmopt.algorithms.operators.variation import ga_offspring, tournament
@@ -245,13 +245,9 @@ class CTSEA(Algorithm):
                  collapsed_range: str = "ideal_plus_one", weights: str = "das_dennis",
                  reference: str = "tmopt") -> None:
         super().__init__(pop_size=pop_size)
-        for label, value, allowed in (("reference", reference, REFERENCES),
-                                      ("collapsed_range", collapsed_range, COLLAPSED_RANGES),
-                                      ("weights", weights, WEIGHTS)):
-            if value not in allowed:
-                raise AlgorithmConfigError(f"algorithm {self.name}: {label} must be one of "
-                                           f"{', '.join(allowed)}, got {value!r}")
-        self.reference = reference
+        self.reference = check_choice(self.name, "reference", reference, REFERENCES)
+        check_choice(self.name, "collapsed_range", collapsed_range, COLLAPSED_RANGES)
+        check_choice(self.name, "weights", weights, WEIGHTS)
         if reference == "platemo":  # every documented fix undone (PLATEMO_SETTINGS)
             random_mating, normalise = True, False
             archive_copies, fill_initial_elite = True, False

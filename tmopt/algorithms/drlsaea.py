@@ -52,7 +52,7 @@ import logging
 import numpy as np
 import torch
 
-from tmopt.algorithms.base import AlgorithmConfigError, check_int, check_number
+from tmopt.algorithms.base import AlgorithmConfigError, check_choice, check_int, check_number
 from tmopt.algorithms.mgsaea import MGSAEA, ModelPlan, granularity_plan
 from tmopt.algorithms.operators.constraints import choose_granularity, dominance_matrix
 from tmopt.metrics.indicators import constraint_violation, hypervolume
@@ -250,9 +250,7 @@ class DRLSAEA(MGSAEA):
         (``reference="platemo"`` sets both groups)."""
         super().__init__(**kwargs)
         name = self.name
-        if input_scaling not in INPUT_SCALINGS:
-            raise AlgorithmConfigError(f"algorithm {name}: input_scaling must be one of "
-                                       f"{', '.join(INPUT_SCALINGS)}, got {input_scaling!r}")
+        check_choice(name, "input_scaling", input_scaling, INPUT_SCALINGS)
         if self.reference == "platemo":  # every documented fix undone (PLATEMO_SETTINGS)
             input_scaling, same_budget_share, per_set_reward = "configured", True, True
         self.input_scaling = input_scaling

@@ -91,7 +91,7 @@ from scipy.stats import mannwhitneyu, rankdata, wilcoxon
 
 from tmopt.algorithms.base import (
     Algorithm,
-    AlgorithmConfigError,
+    check_choice,
     check_int,
     check_number,
     check_surrogate_factory,
@@ -336,12 +336,8 @@ class KTS(Algorithm):
                  reference: str = "tmopt", surrogate: SurrogateFactory | None = None) -> None:
         super().__init__(pop_size=pop_size)
         name = self.name
-        for label, value, allowed in (("reference", reference, REFERENCES),
-                                      ("da_update", da_update, DA_UPDATES)):
-            if value not in allowed:
-                raise AlgorithmConfigError(f"algorithm {name}: {label} must be one of "
-                                           f"{', '.join(allowed)}, got {value!r}")
-        self.reference = reference
+        self.reference = check_choice(name, "reference", reference, REFERENCES)
+        check_choice(name, "da_update", da_update, DA_UPDATES)
         if reference == "platemo":  # every documented fix undone (PLATEMO_SETTINGS)
             paired_convergence_test = mixed_scale_deletion = True
             skip_evaluated = kmeans_normalised = normalise = False

@@ -78,6 +78,7 @@ from pymoo.operators.sampling.lhs import LHS
 from tmopt.algorithms.base import (
     Algorithm,
     AlgorithmConfigError,
+    check_choice,
     check_int,
     check_surrogate_factory,
 )
@@ -266,9 +267,7 @@ class MGSAEA(Algorithm):
                  surrogate: SurrogateFactory | None = None) -> None:
         super().__init__(pop_size=pop_size)
         name = self.name
-        if reference not in REFERENCES:
-            raise AlgorithmConfigError(f"algorithm {name}: reference must be one of "
-                                       f"{', '.join(REFERENCES)}, got {reference!r}")
+        check_choice(name, "reference", reference, REFERENCES)
         if violation_scaling not in ("max", "minmax"):
             raise AlgorithmConfigError(f"algorithm {name}: violation_scaling must be 'max' "
                                        f"or 'minmax', got {violation_scaling!r}")

@@ -62,7 +62,7 @@ from scipy.stats import norm
 
 from tmopt.algorithms.base import (
     Algorithm,
-    AlgorithmConfigError,
+    check_choice,
     check_int,
     check_number,
     check_surrogate_factory,
@@ -161,10 +161,7 @@ class PEA(Algorithm):
                  reference: str = "tmopt", surrogate: SurrogateFactory | None = None) -> None:
         super().__init__(pop_size=pop_size)
         name = self.name
-        if reference not in REFERENCES:
-            raise AlgorithmConfigError(f"algorithm {name}: reference must be one of "
-                                       f"{', '.join(REFERENCES)}, got {reference!r}")
-        self.reference = reference
+        self.reference = check_choice(name, "reference", reference, REFERENCES)
         if reference == "platemo":  # every documented fix undone (PLATEMO_SETTINGS)
             nan_ties, random_fallback, normalise = True, False, False
         self.nan_ties = bool(nan_ties)

@@ -129,7 +129,13 @@ from botorch.sampling import SobolQMCNormalSampler
 from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
 from scipy.stats import qmc
 
-from tmopt.algorithms.base import Algorithm, AlgorithmConfigError, check_int, check_number
+from tmopt.algorithms.base import (
+    Algorithm,
+    AlgorithmConfigError,
+    check_choice,
+    check_int,
+    check_number,
+)
 from tmopt.evaluation.evaluator import EvaluatedBatch
 from tmopt.problems.base import ExpensiveProblem
 from tmopt.surrogates.gp import KERNELS, GPSurrogate
@@ -163,16 +169,10 @@ class QLogNEHVI(Algorithm):
         self.acq_maxiter = check_int(n, "acq_maxiter", acq_maxiter, 1)
         self.mc_samples = check_int(n, "mc_samples", mc_samples, 1)
         self.ref_offset = check_number(n, "ref_offset", ref_offset, 0.0, low_open=True)
-        if ref_point not in REFERENCE_RULES:
-            raise AlgorithmConfigError(f"algorithm {n}: ref_point must be one of "
-                                       f"{REFERENCE_RULES}, got {ref_point!r}")
-        self.ref_point = ref_point
+        self.ref_point = check_choice(n, "ref_point", ref_point, REFERENCE_RULES)
         self.eta = check_number(n, "eta", eta, 0.0, low_open=True)
         self.gp_max_iter = check_int(n, "gp_max_iter", gp_max_iter, 1)
-        if kernel not in KERNELS:
-            raise AlgorithmConfigError(f"algorithm {n}: kernel must be one of {KERNELS}, "
-                                       f"got {kernel!r}")
-        self.kernel = kernel
+        self.kernel = check_choice(n, "kernel", kernel, KERNELS)
         self.max_baseline = None if max_baseline is None else check_int(
             n, "max_baseline", max_baseline, 1)
         self.max_iter = None if max_iter is None else check_int(n, "max_iter", max_iter, 0)

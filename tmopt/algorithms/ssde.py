@@ -63,7 +63,12 @@ import logging
 
 import numpy as np
 
-from tmopt.algorithms.base import Algorithm, AlgorithmConfigError, check_int, check_number
+from tmopt.algorithms.base import (
+    Algorithm,
+    check_choice,
+    check_int,
+    check_number,
+)
 from tmopt.algorithms.operators.survival import nsga2_selection
 from tmopt.algorithms.operators.variation import de_offspring, tournament
 from tmopt.algorithms.som import SelfOrganisingMap
@@ -90,10 +95,7 @@ class SSDE(Algorithm):
                  reference: str = "tmopt") -> None:
         super().__init__(pop_size=pop_size)
         name = self.name
-        if reference not in REFERENCES:
-            raise AlgorithmConfigError(f"algorithm {name}: reference must be one of "
-                                       f"{', '.join(REFERENCES)}, got {reference!r}")
-        self.reference = reference
+        self.reference = check_choice(name, "reference", reference, REFERENCES)
         self.reseed_first_nodes = bool(reseed_first_nodes) or reference == "platemo"
         self.n_nodes = None if n_nodes is None else check_int(name, "n_nodes", n_nodes, 1)
         self.eta0 = check_number(name, "eta0", eta0, 0.0, 1.0, low_open=True)
