@@ -88,15 +88,15 @@ class RunRecord:
             if choice is None and key == "algorithm" and self.metrics:
                 choice = self.metrics.get("algorithm")
             return str(choice)
+        group, _, argument = key.partition(".")
         node: object = self.config
         for part in key.split("."):
             if not isinstance(node, dict) or part not in node:
                 if key in self.overrides:
                     return str(self.overrides[key])
-                group = key.split(".", 1)[0]
-                earlier = earlier_value(group, node, part) \
-                    if isinstance(node, dict) and "." in key and key.count(".") == 1 \
-                    else UNKNOWN
+                # an argument of a group's node that came after this run was made
+                earlier = earlier_value(group, node, argument) if part == argument \
+                    and isinstance(node, dict) else UNKNOWN  # fmt: skip
                 return "" if earlier is UNKNOWN else _text(earlier)
             node = node[part]
         return _text(node)

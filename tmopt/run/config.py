@@ -442,16 +442,10 @@ def config_hash(cfg: DictConfig) -> str:
         data.pop(key, None)
     data.pop("hydra", None)
     _hash_inert_surrogate(data)
-    for (group, target, key), applies in HASH_NEUTRAL_ARGUMENTS.items():
+    for group, target, key in (*HASH_NEUTRAL_ARGUMENTS, *HASH_NEUTRAL_VALUES):
         node = data.get(group)
         if isinstance(node, dict) and node.get("_target_") == target and key in node \
-                and (applies is None or applies(node)) \
-                and node[key] == _plain(constructor_parameters(get_class(target))[key].default):
-            node.pop(key)
-    for (group, target, key), value in HASH_NEUTRAL_VALUES.items():
-        node = data.get(group)
-        if isinstance(node, dict) and node.get("_target_") == target and key in node \
-                and node[key] == value:
+                and node[key] == earlier_value(group, node, key):
             node.pop(key)
     blob = json.dumps(data, sort_keys=True, default=str).encode()
     return hashlib.sha256(blob).hexdigest()[:16]
