@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import copy
 import math
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -133,6 +134,9 @@ class Diagnosis:
     refused: str | None = None
     #: Selected effects whose shape the residual contradicts (:func:`shape_misfits`).
     misfits: list[dict] = field(default_factory=list)
+    #: Selected catalogue effects whose evidence is weak or a stronger effect's remainder
+    #: (:func:`weak_names`).
+    weak: list[dict] = field(default_factory=list)
 
     @property
     def effects(self) -> list[tuple[Evaluation, list[Evaluation]]]:
@@ -701,6 +705,41 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
     return out
 
 
+def _shares_axis(a: str, b: str) -> bool:
+    """Do two channel labels name a common axis ("all axes" and "alpha" name every one)?"""
+    aa, bb = set(re.findall(r"[xy][12]", a)), set(re.findall(r"[xy][12]", b))
+    return not aa or not bb or bool(aa & bb)
+
+
+def weak_names(selected: list, eps: float = cal.MODEL_PRECISION,
+               strong: float = cal.AMBIGUOUS_DBIC) -> list[dict]:  # fmt: skip
+    """Selected catalogue effects not to be named with confidence (issue 26):
+
+    * ``"weak"``: ``delta_bic < strong`` -- "no effect" is within the ambiguity band
+      (Kass & Raftery's "strong" evidence, the rule used between two names);
+    * ``"remainder"``: ``glr < eps^2 glr_s`` for a stronger selected effect ``s`` on a
+      shared axis -- its signal is below the stronger one's model error (the catalogue's
+      forms match an unseen simulator only to ``eps``: ``cal.MODEL_PRECISION``).
+
+    Each: ``{"key", "channel", "kind", "of"}`` (``of``: the stronger effect's name)."""
+    out = []
+    for ev, _ in selected:
+        cand = ev.candidate
+        if cand.effect == generic.GENERIC:
+            continue
+        if ev.dbic < strong:
+            out.append({"key": cand.key, "channel": cand.channel, "kind": "weak", "of": None})
+            continue
+        for other, _ in selected:
+            oc = other.candidate
+            if other is not ev and other.glr > ev.glr and eps**2 * other.glr > ev.glr and \
+                    _shares_axis(oc.channel, cand.channel):  # fmt: skip
+                out.append({"key": cand.key, "channel": cand.channel, "kind": "remainder",
+                            "of": f"{oc.effect}[{oc.channel}]"})  # fmt: skip
+                break
+    return out
+
+
 def effect_parameters(state: State, cand: Candidate) -> dict[str, tuple[float, float]]:
     """A selected candidate's reported parameters ``{name: (value, sigma)}`` in ``state``
     (its fitted columns through :meth:`Candidate.physical`); searched parameters as given."""
@@ -794,6 +833,7 @@ def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
         not_identifiable=identifiability(data, basis, before, settings, n_tests),
         settings=settings, steps=steps, verdict=verdict,
         misfits=shape_misfits(data, basis, state, selected),
+        weak=weak_names(selected),
     )  # fmt: skip
 
 

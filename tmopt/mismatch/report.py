@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tmopt.mismatch import calibration as cal
 from tmopt.mismatch.diagnose import Diagnosis, State, effect_parameters, stiffness, summary
 from tmopt.mismatch.effects import CATALOGUE
 from tmopt.mismatch.fit import AXES
@@ -68,7 +69,9 @@ def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
       significant structure there, so it is at most part of the story (issue 26: a
       confident wrong name is the worst outcome);
     * with ``dg``: a shape misfit (:attr:`Diagnosis.misfits`): the residual on its
-      channel needs what the effect's shape lacks (a drift that is not linear)."""
+      channel needs what the effect's shape lacks (a drift that is not linear);
+    * with ``dg``: weak evidence or a stronger effect's remainder (:attr:`Diagnosis.weak`,
+      :func:`tmopt.mismatch.diagnose.weak_names`)."""
     out = [{"name": a.candidate.effect, "channel": a.candidate.channel, "delta_bic": a.dbic}
            for a in alts if a.candidate.effect != ev.candidate.effect]  # fmt: skip
     if dg is None:
@@ -79,6 +82,17 @@ def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
                      "not the effect's shape)", "channel": m["channel"], "delta_bic": None,
              "glr": m["glr"], "p_value": m["p_value"]}
             for m in dg.misfits if m["key"] == ev.candidate.key]  # fmt: skip
+    for w in dg.weak:
+        if w["key"] != ev.candidate.key:
+            continue
+        if w["kind"] == "weak":
+            out.append({"name": "no effect (evidence not strong: delta BIC below "
+                                f"{cal.AMBIGUOUS_DBIC:g})", "channel": w["channel"],
+                        "delta_bic": ev.dbic})  # fmt: skip
+        else:
+            out.append({"name": f"remainder of {w['of']} (below its model precision, "
+                                f"{cal.MODEL_PRECISION:.0%} of its signal)",
+                        "channel": w["channel"], "delta_bic": None})  # fmt: skip
     mine = _axes(ev.candidate.channel)
     kin = ev.candidate.group == "kinematic"  # its structure is in the readout residual
     left = [c for c in dg.locations_after.channels
