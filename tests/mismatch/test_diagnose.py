@@ -102,3 +102,38 @@ def test_holm_and_ljung_box_match_their_definitions():
     from scipy import stats
 
     assert abs(ljung_box(x, lags) - stats.chi2.sf(q, lags)) < 1e-12
+
+
+def _ev(effect: str, channel: str, glr: float, n_obs: int = 10_000):
+    from types import SimpleNamespace
+
+    from tmopt.mismatch.diagnose import Evaluation
+
+    cand = SimpleNamespace(effect=effect, channel=channel, key=f"{effect}[{channel}]",
+                           n_searched=0)  # fmt: skip
+    return Evaluation(cand, glr=glr, dof=1, n_obs=n_obs, p_value=0.0)
+
+
+def test_weak_and_remainder_names_are_flagged_by_their_definitions():
+    """:func:`weak_names`: delta BIC = glr - ln n below AMBIGUOUS_DBIC is "weak"; a GLR
+    below MODEL_PRECISION^2 of a stronger selected effect's on a shared axis ("all axes"
+    shares every axis) is "remainder"; an effect on other axes, or above the precision,
+    keeps its name (r4's case: a quantisation at GLR 47321 with an actuation delay at 33
+    on x2 -- ratio sqrt(33/47321) = 0.026 < 0.05)."""
+    from tmopt.mismatch import calibration as cal
+    from tmopt.mismatch.diagnose import weak_names
+
+    ln_n = math.log(10_000)
+    q = _ev("actuation_quantisation", "all axes", 47321.0)
+    delay = _ev("actuation_delay", "x2", 33.1)
+    weak = _ev("sensing_cross_talk", "acc:x2<-y1", ln_n + cal.AMBIGUOUS_DBIC - 1.0)
+    drift = _ev("bias_drift", "x1", 40000.0)
+    gain = _ev("actuation_gain", "x1", (2 * cal.MODEL_PRECISION) ** 2 * 40000.0)
+    glitch = _ev("glitch", "x2", 20.0 + ln_n)  # x2 only: drift's x1 is not shared
+    out = weak_names([(e, []) for e in (q, delay, weak)])
+    assert {w["key"]: (w["kind"], w["of"]) for w in out} == {
+        "actuation_delay[x2]": ("remainder", "actuation_quantisation[all axes]"),
+        "sensing_cross_talk[acc:x2<-y1]": ("weak", None)}  # fmt: skip
+    assert weak_names([(drift, []), (glitch, []), (gain, [])]) == []
+    tiny = _ev("actuation_gain", "x1", (cal.MODEL_PRECISION / 2) ** 2 * 40000.0)
+    assert [w["kind"] for w in weak_names([(drift, []), (tiny, [])])] == ["remainder"]

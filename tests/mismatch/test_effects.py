@@ -204,6 +204,40 @@ def test_glitch_is_found_where_it_is(clean):
     assert abs(amp - 3e-11) < 0.25 * 3e-11 and sd < 0.1 * 3e-11
 
 
+def test_a_glitch_between_samples_is_fitted_off_the_grids(clean):
+    """A loud shapelet glitch (SNR ~60; the injection's exact interval average) starting
+    0.37 of a sample after a sample time, width 5.3 s (between the width grid's points):
+    onset and width are fitted off the grids and the kick to 1 %.  Before (sample-grid
+    onset, width grid 2^0.1): kick 2.4 % (17 sigma) off, and the remainder's matched
+    filter statistic 105 (a second glitch named; now 35); benchmark r4 on the
+    independent simulator named such remainders as two or three more glitches."""
+    from tmopt.mismatch.effects.glitch import glitch_interval_average
+
+    d = copy.deepcopy(clean)
+    t0 = float(d.time[d.n // 3]) + 0.37 * d.dt
+    add_force(d, 0, 1e-8 * glitch_interval_average(d.time, d.dt, t0, 5.3, "shapelet"))
+    basis = null_basis(d.geometry)
+    st = fit_state(d, basis, [], [], False, SETTINGS)
+    ctx = Context(d, basis, st.eq_fit.residual, st.eq_noise)
+    (cand,) = Glitch().candidates(ctx)
+    assert cand.channel == "x1" and cand.fixed["shape"] == "shapelet"
+    assert abs(cand.fixed["t0_s"] - t0) < 0.2 * d.dt, (cand.fixed["t0_s"], t0)
+    assert abs(cand.fixed["decay_s"] / 5.3 - 1) < 0.02, cand.fixed["decay_s"]
+    st = fit_state(d, basis, cand.columns, [], False, SETTINGS)
+    assert abs(st.eq_fit.coef[-1] / 1e-8 - 1) < 0.01, st.eq_fit.coef[-1]
+
+
+def test_glitch_kicks_match_lisaglitch():
+    """The analytic kick of the diagnosis templates (``_kick``) against the LISA
+    consortium's ``lisaglitch`` integrated shapelet (an independent implementation)."""
+    from tmopt.mismatch.effects.glitch import _kick, _velocity
+
+    t = np.linspace(100.0, 200.0, 1001)
+    for kind in ("exp", "shapelet"):
+        ref = _velocity(kind, t, 123.4, 5.0, None, 2.0)
+        assert np.max(np.abs(_kick(t - 123.4, 5.0, kind) - ref)) < 1e-12
+
+
 def test_colored_noise_is_decided_by_the_red_noise_likelihood(clean):
     """With the white noise model (round one's; ``Settings(noise="white")``) coloured noise
     is an effect decided by the Whittle likelihood ratio; with the default coloured model it

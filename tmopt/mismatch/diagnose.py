@@ -740,6 +740,26 @@ def weak_names(selected: list, eps: float = cal.MODEL_PRECISION,
     return out
 
 
+def events(selected: list) -> list[list[int]]:
+    """Indices of ``selected`` grouped by physical event: the pieces of one glitch
+    (:func:`tmopt.mismatch.effects.glitch.same_event`, same axis) together, every other
+    selection on its own; in order of first selection."""
+    from tmopt.mismatch.effects.glitch import same_event
+
+    groups: list[list[int]] = []
+    for i, (ev, _) in enumerate(selected):
+        c = ev.candidate
+        for g in groups:
+            h = selected[g[0]][0].candidate
+            if c.effect == "glitch" == h.effect and c.channel == h.channel and any(
+                    same_event(c.fixed, selected[j][0].candidate.fixed) for j in g):
+                g.append(i)
+                break
+        else:
+            groups.append([i])
+    return groups
+
+
 def effect_parameters(state: State, cand: Candidate) -> dict[str, tuple[float, float]]:
     """A selected candidate's reported parameters ``{name: (value, sigma)}`` in ``state``
     (its fitted columns through :meth:`Candidate.physical`); searched parameters as given."""
@@ -801,7 +821,9 @@ def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
     state = before = fit_state(data, basis, [], [], False, settings)
     selected, steps = [], []
     exclude: set[str] = set()
-    while len(selected) < settings.max_effects:
+    # glitch pieces of one event count once; at most twice max_effects selections in all
+    while len(events(selected)) < settings.max_effects and \
+            len(selected) < 2 * settings.max_effects:  # fmt: skip
         evals = evaluate(data, basis, state, settings, exclude)
         steps.append(evals)
         sig = _significant(evals, settings.alpha)

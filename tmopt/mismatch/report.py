@@ -12,7 +12,14 @@ from pathlib import Path
 import numpy as np
 
 from tmopt.mismatch import calibration as cal
-from tmopt.mismatch.diagnose import Diagnosis, State, effect_parameters, stiffness, summary
+from tmopt.mismatch.diagnose import (
+    Diagnosis,
+    State,
+    effect_parameters,
+    events,
+    stiffness,
+    summary,
+)
 from tmopt.mismatch.effects import CATALOGUE
 from tmopt.mismatch.fit import AXES
 from tmopt.mismatch.locate import tone_transfer, witness_coherence
@@ -126,7 +133,8 @@ def _unexplained_at(dg: Diagnosis, rep: dict) -> dict:
 
 def _not_identifiable(dg: Diagnosis) -> list[dict]:
     out = [dict(r) for r in dg.not_identifiable]
-    for ev, alts in dg.effects:
+    for group in events(dg.effects):  # one per event: a glitch's strongest piece
+        ev, alts = max((dg.effects[i] for i in group), key=lambda p: p[0].glr)
         others = _rivals(ev, alts, dg)
         if others:
             out.append({
@@ -241,10 +249,8 @@ def build_report(dg: Diagnosis) -> dict:
         "unexplained": dg.unexplained,
         "locations": dg.locations.as_dict(),
         "locations_unexplained": dg.locations_after.as_dict(),
-        "effects": [_effect_entry(dg, ev, alts) for ev, alts in dg.effects
-                    if not _rivals(ev, alts, dg)],
-        "ambiguous": [{**_effect_entry(dg, ev, alts), "rivals": _rivals(ev, alts, dg)}
-                      for ev, alts in dg.effects if _rivals(ev, alts, dg)],
+        "effects": [e for e in _event_entries(dg) if not e["rivals"]],
+        "ambiguous": [e for e in _event_entries(dg) if e["rivals"]],
         "features": [_feature_entry(dg, ev) for ev, _ in dg.features],
         "not_identifiable": _not_identifiable(dg),
         "fit": {"before": before, "after": after},
@@ -253,9 +259,32 @@ def build_report(dg: Diagnosis) -> dict:
         "settings": _settings(dg),
         "notes": list(dg.data.notes),
     }  # fmt: skip
+    for e in rep["effects"]:
+        del e["rivals"]
     rep["unexplained_at"] = _unexplained_at(dg, rep)
     rep["conclusion"] = conclusion(rep)
     return rep
+
+
+def _event_entries(dg: Diagnosis) -> list[dict]:
+    """One entry per physical event (:func:`tmopt.mismatch.diagnose.events`): the pieces
+    of one glitch are reported once, as their strongest piece with ``pieces`` (their
+    number, onsets and kicks) -- its rivals decide whether the name is confident."""
+    out = []
+    for group in events(dg.effects):
+        pieces = [dg.effects[i] for i in group]
+        ev, alts = max(pieces, key=lambda p: p[0].glr)
+        entry = {**_effect_entry(dg, ev, alts), "rivals": _rivals(ev, alts, dg)}
+        if len(pieces) > 1:
+            kicks = [effect_parameters(dg.after, p.candidate).get("dv", (float("nan"), 0))[0]
+                     for p, _ in pieces]  # fmt: skip
+            entry["pieces"] = {"n": len(pieces),
+                               "t0_s": [p.candidate.fixed["t0_s"] for p, _ in pieces],
+                               "dv": kicks}  # fmt: skip
+            entry["explanation"] += (f"; the event's shape is not the catalogue template's: "
+                                     f"fitted by {len(pieces)} pieces")  # fmt: skip
+        out.append(entry)
+    return out
 
 
 def _stiff(state: State) -> dict:

@@ -82,13 +82,16 @@ class Glitch(Effect):
         lam, axis, t0_idx, beta, kind, trials = best
         t0_idx, beta = self.refine(ctx, axis, t0_idx, beta, kind)
         d = ctx.data
-        tt = d.time - d.time[t0_idx]
-        shape = glitch_shape(tt, beta, kind)
+        fits = [(*self.refine_continuous(ctx, axis, float(d.time[t0_idx]), beta, kind, how),
+                 how) for how in SAMPLINGS]  # fmt: skip
+        _, t0, beta, how = max(fits)
+        trials *= len(SAMPLINGS)
+        shape = _template(d, t0, beta, kind, how)
         col = Column(f"glitch[{AXES[axis]}]", axis_column(ctx.basis, axis, shape))
-        t0 = float(d.time[t0_idx])
         return [Candidate(
             self.name, AXES[axis], "equation", ["dv"], ["m s^-1"], [col], None, trials,
-            fixed={"t0_s": t0, "decay_s": float(beta), "shape": kind}, n_searched=2,
+            fixed={"t0_s": t0, "decay_s": float(beta), "shape": kind, "sampling": how},
+            n_searched=2,
             text=self.explanation.format(ch=AXES[axis], where=TMS[AXES[axis]], t0=t0,
                                          beta=beta, kind=kind),
         )]  # fmt: skip
@@ -112,6 +115,36 @@ class Glitch(Effect):
                 if lam > best[0]:
                     best = (lam, k, float(b))
         return best[1], best[2]
+
+    def refine_continuous(self, ctx: Context, axis: int, t0: float, beta: float, kind: str,
+                          how: str) -> tuple[float, float, float]:  # fmt: skip
+        """Onset and width off the grids (Nelder-Mead on ``(t0, ln beta)``, onset within
+        +-2 samples, width within a factor 2) for one way the instrument samples a
+        continuous force (``how``, :data:`SAMPLINGS`).  Why: a loud glitch starts between
+        samples; the sample-grid template leaves a few per cent of it, which at SNR > 100
+        was named two or three more glitches beside it (benchmark r4, the independent
+        simulator).  Returns (statistic, onset, width)."""
+        from scipy.optimize import minimize
+
+        d = ctx.data
+        e = ctx.eq_noise.whiten(ctx.eq_residual)
+
+        def neg_lam(p: np.ndarray) -> float:
+            if abs(p[0]) > 2.0 * d.dt or abs(p[1]) > math.log(2.0):
+                return 0.0
+            g = _template(d, t0 + p[0], beta * math.exp(p[1]), kind, how)
+            t = ctx.eq_noise.whiten(axis_column(ctx.basis, axis, g))
+            energy = float(np.sum(t**2))
+            return 0.0 if energy <= 0 else -float(np.sum(e * t)) ** 2 / energy
+
+        start = [np.array([dt, 0.0]) for dt in (-0.5 * d.dt, 0.0, 0.5 * d.dt)]
+        best = min(start, key=neg_lam)
+        simplex = np.array([best, best + [0.25 * d.dt, 0.0], best + [0.0, 0.05]])
+        res = minimize(neg_lam, best, method="Nelder-Mead",
+                       options={"initial_simplex": simplex, "xatol": 1e-3 * d.dt,
+                                "fatol": 1e-3, "maxfev": 200})  # fmt: skip
+        p, lam = (res.x, -res.fun) if res.fun <= neg_lam(best) else (best, -neg_lam(best))
+        return float(lam), float(t0 + p[0]), float(beta * math.exp(p[1]))
 
     def search(self, ctx: Context):
         """Max over axis, width, shape, onset of the matched-filter statistic
@@ -150,6 +183,20 @@ class Glitch(Effect):
         return None if best is None else (*best, float(trials))
 
 
+#: Pieces of one glitch event: onsets within this many widths (the wider piece's) of
+#: each other, on one axis.  A glitch whose shape the catalogue's templates do not match
+#: (an LPF double exponential, or a simulator's own response to the kick) is fitted by a
+#: main piece and smaller ones around it; they are one transient force, reported once and
+#: counted once against ``max_effects`` (benchmark r4: four pieces filled max_effects and
+#: hid a drift beside the glitch).
+EVENT_WIDTHS = 3.0
+
+
+def same_event(a: dict[str, Any], b: dict[str, Any]) -> bool:
+    """Are two fitted glitch pieces (their ``fixed``: ``t0_s``, ``decay_s``) one event?"""
+    return abs(a["t0_s"] - b["t0_s"]) <= EVENT_WIDTHS * max(a["decay_s"], b["decay_s"])
+
+
 def glitch_shape(t: np.ndarray, beta: float, kind: str) -> np.ndarray:
     """Unit-area force-glitch templates of LISA Pathfinder (Baghi et al., PRD 105, 042002,
     2022): one-sided exponential ``e^{-t/b}/b`` and the n=1 shapelet ``t e^{-t/b}/b^2``
@@ -158,6 +205,36 @@ def glitch_shape(t: np.ndarray, beta: float, kind: str) -> np.ndarray:
     if kind == "exp":
         return np.where(t >= 0, np.exp(-s), 0.0) / beta
     return s * np.exp(-s) / beta
+
+
+#: How an instrument may sample a continuous force (a glitch): its value at the sample
+#: time (an accelerometer read at t_n; the independent simulator's ``held``) or its mean
+#: over ``[t_n, t_n + h)`` (an integrating sensor, or a force on a zero-order hold as the
+#: kernel applies it).  An unseen instrument's is not known: the data choose (a discrete
+#: search, counted in the trials).
+SAMPLINGS: tuple[str, ...] = ("point", "average")
+
+
+def _template(d: Data, t0: float, beta: float, kind: str, how: str) -> np.ndarray:
+    """The unit-kick template on the recording's own clock, sampled as ``how``."""
+    if how == "point":
+        return glitch_shape(d.time - t0, beta, kind)
+    return _sampled_average(d, t0, beta, kind)
+
+
+def _sampled_average(d: Data, t0: float, beta: float, kind: str) -> np.ndarray:
+    """The unit-kick template averaged over each sampling interval ``[t_n, t_n + h)`` of
+    the recording's own clock (gaps included: each interval on its own)."""
+    return (_kick(d.time + d.dt - t0, beta, kind) - _kick(d.time - t0, beta, kind)) / d.dt
+
+
+def _kick(s: np.ndarray, beta: float, kind: str) -> np.ndarray:
+    """Kick delivered by ``s`` after the onset by the unit-kick ``exp`` or ``shapelet``
+    template (:func:`glitch_shape` integrated: ``1 - e^{-u}`` and ``1 - (1 + u) e^{-u}``,
+    u = s / beta >= 0); analytic, as ``lisaglitch``'s integrated shapelet (checked in
+    tests/mismatch/test_effects.py)."""
+    u = np.maximum(s, 0.0) / beta
+    return -np.expm1(-u) if kind == "exp" else -np.expm1(-u) - u * np.exp(-u)
 
 
 def _glitch_primitive(s: np.ndarray, beta: float, shape: str) -> np.ndarray:
