@@ -137,3 +137,20 @@ def test_weak_and_remainder_names_are_flagged_by_their_definitions():
     assert weak_names([(drift, []), (glitch, []), (gain, [])]) == []
     tiny = _ev("actuation_gain", "x1", (cal.MODEL_PRECISION / 2) ** 2 * 40000.0)
     assert [w["kind"] for w in weak_names([(drift, []), (tiny, [])])] == ["remainder"]
+
+
+def test_pieces_of_one_glitch_are_one_event():
+    """:func:`events` with :meth:`Glitch.same_event`: glitch pieces on one axis with
+    onsets within EVENT_WIDTHS widths group together; another axis, a later glitch, or
+    another effect stand alone."""
+    from tmopt.mismatch.diagnose import events
+
+    def glitch(ch: str, t0: float, beta: float):
+        ev = _ev("glitch", ch, 100.0)
+        ev.candidate.fixed = {"t0_s": t0, "decay_s": beta}
+        return ev
+
+    sel = [glitch("x1", 591.7, 5.0), _ev("bias_drift", "x1", 50.0),
+           glitch("x1", 598.7, 6.8), glitch("x2", 592.0, 5.0), glitch("x1", 900.0, 5.0),
+           glitch("x1", 592.4, 0.9)]  # fmt: skip
+    assert events([(e, []) for e in sel]) == [[0, 2, 5], [1], [3], [4]]

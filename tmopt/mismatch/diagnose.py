@@ -741,18 +741,16 @@ def weak_names(selected: list, eps: float = cal.MODEL_PRECISION,
 
 
 def events(selected: list) -> list[list[int]]:
-    """Indices of ``selected`` grouped by physical event: the pieces of one glitch
-    (:func:`tmopt.mismatch.effects.glitch.same_event`, same axis) together, every other
-    selection on its own; in order of first selection."""
-    from tmopt.mismatch.effects.glitch import same_event
-
+    """Indices of ``selected`` grouped by physical event: pieces of one event of a
+    repeatable effect (:meth:`Effect.same_event`: a glitch's pieces on one axis) together,
+    every other selection on its own; in order of first selection."""
     groups: list[list[int]] = []
     for i, (ev, _) in enumerate(selected):
         c = ev.candidate
+        model = EFFECTS.get(c.effect)
         for g in groups:
-            h = selected[g[0]][0].candidate
-            if c.effect == "glitch" == h.effect and c.channel == h.channel and any(
-                    same_event(c.fixed, selected[j][0].candidate.fixed) for j in g):
+            if model is not None and selected[g[0]][0].candidate.effect == c.effect and any(
+                    model.same_event(selected[j][0].candidate, c) for j in g):  # fmt: skip
                 g.append(i)
                 break
         else:

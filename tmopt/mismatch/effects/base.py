@@ -319,6 +319,11 @@ class Effect:
         as a linear drift), and the name is reported ambiguous, the channel unexplained."""
         return []
 
+    def same_event(self, a: Candidate, b: Candidate) -> bool:
+        """Are two selected candidates of this (repeatable) effect pieces of one physical
+        event, reported and counted once (:func:`tmopt.mismatch.diagnose.events`)?"""
+        return False
+
     def untestable(self, ctx: Context) -> str | None:
         """Why this recording cannot test the effect at all (e.g. missing channels)."""
         return None

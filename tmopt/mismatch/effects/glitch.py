@@ -116,6 +116,12 @@ class Glitch(Effect):
                     best = (lam, k, float(b))
         return best[1], best[2]
 
+    def same_event(self, a: Candidate, b: Candidate) -> bool:
+        """Pieces of one glitch: one axis, onsets within :data:`EVENT_WIDTHS` widths."""
+        fa, fb = a.fixed, b.fixed
+        return a.channel == b.channel and \
+            abs(fa["t0_s"] - fb["t0_s"]) <= EVENT_WIDTHS * max(fa["decay_s"], fb["decay_s"])
+
     def refine_continuous(self, ctx: Context, axis: int, t0: float, beta: float, kind: str,
                           how: str) -> tuple[float, float, float]:  # fmt: skip
         """Onset and width off the grids (Nelder-Mead on ``(t0, ln beta)``, onset within
@@ -190,11 +196,6 @@ class Glitch(Effect):
 #: counted once against ``max_effects`` (benchmark r4: four pieces filled max_effects and
 #: hid a drift beside the glitch).
 EVENT_WIDTHS = 3.0
-
-
-def same_event(a: dict[str, Any], b: dict[str, Any]) -> bool:
-    """Are two fitted glitch pieces (their ``fixed``: ``t0_s``, ``decay_s``) one event?"""
-    return abs(a["t0_s"] - b["t0_s"]) <= EVENT_WIDTHS * max(a["decay_s"], b["decay_s"])
 
 
 def glitch_shape(t: np.ndarray, beta: float, kind: str) -> np.ndarray:
