@@ -111,14 +111,16 @@ def main(argv=None) -> int:
             fh.write(json.dumps(row, default=float) + "\n")
             fh.flush()
             print(json.dumps(row, default=float), flush=True)
-    rows = [json.loads(x) for x in path.open() if "error" not in x]
+    rows = [r for r in map(json.loads, path.open()) if "error" not in r]
     for s in ("single", "pair"):
         for b in ("kernel", "foreign"):
             rs = [r for r in rows if r["set"] == s and r["backend"] == b]
             effs = [e for r in rs for e in r["selected"]]
             false = [e for e in effs if not e["true"]]
             true = [e for e in effs if e["true"]]
-            print(f"{s:6s} {b:7s}: {len(rs)} recordings; extra names {len(false)}, stopped "
+            refused = sum(bool(r["refused"]) for r in rs)
+            print(f"{s:6s} {b:7s}: {len(rs)} recordings ({refused} refused); extra names "
+                  f"{len(false)}, stopped "
                   f"{sum(bool(e['stopped']) for e in false)}; true names {len(true)}, "
                   f"stopped {sum(bool(e['stopped']) for e in true)}")
     return 0
