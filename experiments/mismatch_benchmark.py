@@ -2,7 +2,8 @@
 
     python experiments/mismatch_benchmark.py [--quick] [--jobs 2] [--out DIR]
     python experiments/mismatch_benchmark.py --realistic [--backend kernel|foreign|both]
-        [--quick] [--seed-base 40000] [--jobs 2] [--out DIR]
+        [--quick] [--seed-base 40000] [--jobs 2] [--out DIR] [--summarise]
+        [--paired-with EARLIER_OUT]
 
 ``--realistic`` (issue 26): flight-like recordings from :mod:`tmopt.mismatch.realistic`
 -- coloured noise in every channel, gaps, LPF glitch shapes, random durations (1200-3600 s),
@@ -224,6 +225,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--backend", choices=("kernel", "foreign", "both"), default="both")
     p.add_argument("--summarise", action="store_true",
                    help="with --realistic: score the rows already in --out, simulate nothing")
+    p.add_argument("--paired-with", default=None, metavar="DIR",
+                   help="with --realistic: also score only the recordings that DIR (an "
+                        "earlier run's --out) scored too, both runs side by side")
     p.add_argument("--seed-base", type=int, default=40000,
                    help="first seed of the realistic set (default 40000: fresh seeds)")
     args = p.parse_args(argv)

@@ -302,6 +302,15 @@ def main_realistic(args) -> int:
     text = summarise(rows)
     (out / "realistic.md").write_text(text)
     print(text)
+    if getattr(args, "paired_with", None):  # the same recordings scored by an earlier run
+        other = [json.loads(x) for x in
+                 (Path(args.paired_with) / "realistic_rows.jsonl").read_text().splitlines() if x]
+        mine = {(r["backend"], r["seed"]) for r in rows}
+        both = mine & {(r["backend"], r["seed"]) for r in other}
+        print(f"## Paired on the {len(both)} recordings both runs scored\n\n### {args.out}\n")
+        print(summarise([r for r in rows if (r["backend"], r["seed"]) in both]))
+        print(f"### {args.paired_with}\n")
+        print(summarise([r for r in other if (r["backend"], r["seed"]) in both]))
     cpu = [r["cpu_s"] for r in rows if "cpu_s" in r]
     if cpu:
         print(f"{len(rows)} recordings; CPU per recording: median {np.median(cpu):.1f} s, "
