@@ -116,10 +116,10 @@ def _ev(effect: str, channel: str, glr: float, n_obs: int = 10_000):
 
 def test_weak_and_remainder_names_are_flagged_by_their_definitions():
     """:func:`weak_names`: delta BIC = glr - ln n below AMBIGUOUS_DBIC is "weak"; a GLR
-    below MODEL_PRECISION^2 of a stronger selected effect's on a shared axis ("all axes"
-    shares every axis) is "remainder"; an effect on other axes, or above the precision,
-    keeps its name (r4's case: a quantisation at GLR 47321 with an actuation delay at 33
-    on x2 -- ratio sqrt(33/47321) = 0.026 < 0.05)."""
+    below MODEL_PRECISION^2 of a stronger selected *searched* effect's on a shared axis
+    ("all axes" shares every axis) is "remainder"; an effect on other axes, above the
+    precision, or beside a linear effect keeps its name (r4's case: a quantisation at
+    GLR 47321 with an actuation delay at 33 on x2 -- ratio sqrt(33/47321) = 0.026)."""
     from tmopt.mismatch import calibration as cal
     from tmopt.mismatch.diagnose import weak_names
 
@@ -135,8 +135,13 @@ def test_weak_and_remainder_names_are_flagged_by_their_definitions():
         "actuation_delay[x2]": ("remainder", "actuation_quantisation[all axes]"),
         "sensing_cross_talk[acc:x2<-y1]": ("weak", None)}  # fmt: skip
     assert weak_names([(drift, []), (glitch, []), (gain, [])]) == []
+    # below eps of a linear effect (a drift): no remainder -- it is fitted exactly in its
+    # span (the issue's 0.2 s delay with a drift at 1/20 of its signal); of a searched one
+    # (a quantisation): a remainder
     tiny = _ev("actuation_gain", "x1", (cal.MODEL_PRECISION / 2) ** 2 * 40000.0)
-    assert [w["kind"] for w in weak_names([(drift, []), (tiny, [])])] == ["remainder"]
+    assert weak_names([(drift, []), (tiny, [])]) == []
+    q2 = _ev("actuation_quantisation", "all axes", 40000.0)
+    assert [w["kind"] for w in weak_names([(q2, []), (tiny, [])])] == ["remainder"]
 
 
 def test_pieces_of_one_glitch_are_one_event():

@@ -24,8 +24,9 @@ see docs/mismatch.md, "Calibration").  They are constants here, not tuned per re
   false-misfit rate on true linear drifts in flight-like recordings is measured by
   ``experiments/mismatch_shape_calibration.py`` (docs/mismatch.md 9.6).
 * ``MODEL_PRECISION`` -- relative precision to which a catalogue effect's form is assumed
-  to match the physics of a simulator or instrument the tool has not seen (eps).  A
-  selected effect whose signal is below eps times that of a stronger selected effect on a
+  to match the physics of a simulator or instrument the tool has not seen (eps), for an
+  effect whose form carries searched parameters (``profiled``, not repeatable).  A
+  selected effect whose signal is below eps times that of a stronger such effect on a
   shared axis (``glr < eps^2 glr_strong``: the GLR grows with the signal's square) cannot
   be told from the stronger effect's model error (a quantisation fitted to 99.9 % leaves
   a remainder a delay or glitch can take) and is reported ambiguous ("remainder of ...").

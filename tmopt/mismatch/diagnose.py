@@ -717,9 +717,14 @@ def weak_names(selected: list, eps: float = cal.MODEL_PRECISION,
 
     * ``"weak"``: ``delta_bic < strong`` -- "no effect" is within the ambiguity band
       (Kass & Raftery's "strong" evidence, the rule used between two names);
-    * ``"remainder"``: ``glr < eps^2 glr_s`` for a stronger selected effect ``s`` on a
-      shared axis -- its signal is below the stronger one's model error (the catalogue's
-      forms match an unseen simulator only to ``eps``: ``cal.MODEL_PRECISION``).
+    * ``"remainder"``: ``glr < eps^2 glr_s`` for a stronger selected *searched* effect
+      ``s`` (``profiled``: its form carries parameters searched on the residual -- a DAC
+      step -- so an unseen simulator's version of it is matched only to ``eps``,
+      ``cal.MODEL_PRECISION``) on a shared axis: its signal is below the stronger one's
+      model error.  An effect linear in its parameters is fitted exactly in its span, so
+      an effect beside it is no remainder of it (the issue's 0.2 s delay with a drift at
+      1/20 of its signal keeps both names); a repeatable one (a glitch) has its own
+      pieces grouped instead (:func:`events`).
 
     Each: ``{"key", "channel", "kind", "of"}`` (``of``: the stronger effect's name)."""
     out = []
@@ -732,7 +737,9 @@ def weak_names(selected: list, eps: float = cal.MODEL_PRECISION,
             continue
         for other, _ in selected:
             oc = other.candidate
-            if other is not ev and other.glr > ev.glr and eps**2 * other.glr > ev.glr and \
+            model = EFFECTS.get(oc.effect)
+            searched = model is not None and model.profiled and not model.repeatable
+            if other is not ev and searched and eps**2 * other.glr > ev.glr and \
                     _shares_axis(oc.channel, cand.channel):  # fmt: skip
                 out.append({"key": cand.key, "channel": cand.channel, "kind": "remainder",
                             "of": f"{oc.effect}[{oc.channel}]"})  # fmt: skip
