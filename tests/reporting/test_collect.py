@@ -16,7 +16,7 @@ import pytest
 
 from tmopt.reporting.collect import collect, main
 from tmopt.reporting.runs import deduplicate, discover_runs, setting_keys
-from tmopt.reporting.stats import fmt_mean_std, mark, mean_std, rank_sum
+from tmopt.reporting.stats import fmt_mean_std, mark, mean_std, rank_sum, signed_rank
 from tmopt.reporting.tables import STIFFNESS_METRICS, summarise
 
 
@@ -143,6 +143,23 @@ def test_rank_sum_p_values_equal_the_exact_distribution():
     assert mark([1, 2, 3, 4, 5], [6, 7, 8, 9, 10], 2 / 252) == "+"
     assert mark([6, 7, 8, 9, 10], [1, 2, 3, 4, 5], 2 / 252) == "-"
     assert mark([1, 2, 3], [1, 2, 4], 0.8) == "="
+
+
+def test_signed_rank_pairs_by_seed_and_equals_the_exact_distribution():
+    # Every one of n pairs favours the same side: two-sided exact p = 2 / 2^n.
+    a = {s: float(s) for s in range(5)}
+    b = {s: float(s) + 1 + s / 10 for s in range(5)}
+    assert signed_rank(a, b) == pytest.approx(2 / 32)
+    # Pairing is by key: seeds only one side has (7) and non-finite values (4) drop out,
+    # leaving 4 pairs (2 / 16); unpaired, the same numbers would give another p.
+    b_more = {**b, 7: -100.0, 4: None}
+    assert signed_rank(a, b_more) == pytest.approx(2 / 16)
+    # Signed ranks of d = (-1, -2, +3, -4): W+ = 3; P(W+ <= 3) = 5/16, two-sided 10/16.
+    c = {0: 1.0, 1: 2.0, 2: 6.0, 3: 4.0}
+    d = {0: 2.0, 1: 4.0, 2: 3.0, 3: 8.0}
+    assert signed_rank(c, d) == pytest.approx(10 / 16)
+    assert signed_rank(a, dict(a)) == 1.0  # no pair differs
+    assert math.isnan(signed_rank({0: 1.0}, {0: 2.0, 1: 3.0}))  # one pair: untestable
     assert mark([1, 2, 3, 4, 5], [6, 7, 8, 9, 10], 2 / 252, lower_is_better=False) == "-"
 
 
