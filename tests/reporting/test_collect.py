@@ -24,7 +24,7 @@ def _run(root: Path, name: str, overrides: dict, *, algorithm: str = "nsga2",
          scheme: str = "B", n_freq: int = 3, seed: int = 0, m: float | None = 5.0,
          status: str = "complete", problem: str = "stiffness", igd: float | None = None,
          hv: float | None = None, below_floor: tuple[str, ...] = (),
-         stage: int | None = None) -> Path:
+         stage: int | None = None, feasible_ratio: float | None = None) -> Path:
     """A run folder as the CLI leaves it (only the files collect reads)."""
     path = root / name
     (path / ".hydra").mkdir(parents=True)
@@ -49,6 +49,7 @@ def _run(root: Path, name: str, overrides: dict, *, algorithm: str = "nsga2",
                    "n_evals": 100, "wall_time_s": 2.0, "pareto_size": 1,
                    "chosen": {"feasible": True}, "identification": ident,
                    "config_hash": f"{name}-hash", "igd": igd, "hv": hv,
+                   "feasible_ratio": feasible_ratio,
                    "algorithm_summary": {} if stage is None else {"stage_reached": stage}}
         if m is not None:  # held-out scores: the search draw's M plus 1 (luck removed)
             stat = lambda v: {"mean": v, "std": 1.0, "median": v}  # noqa: E731
@@ -197,7 +198,7 @@ def test_benchmark_table_and_figures_for_suite_runs(tmp_path):
             _run(tmp_path, f"{algo}{seed}", {"algorithm": algo, "problem": "mw1",
                                              "seed": seed},
                  algorithm=algo, problem="mw1", seed=seed, igd=igd + 0.01 * seed,
-                 hv=1 - igd, m=None)
+                 hv=1 - igd, m=None, feasible_ratio=igd / 2 + 0.05 * seed)
     out = tmp_path / "out"
     files = {p.name for p in collect(tmp_path, out)}
     assert {"benchmarks.md", "benchmarks.csv", "benchmarks_igd.png",
@@ -205,7 +206,8 @@ def test_benchmark_table_and_figures_for_suite_runs(tmp_path):
     assert "table3.md" not in files  # no stiffness run
     text = (out / "benchmarks.md").read_text()
     # 3 vs 3 completely separated: exact p = 2/20 = 0.1, not significant at 0.05
-    assert "| mw1 | NSGA-II | 3/3 | 3/3 | 0.51 ± 0.01 | 0.100 = |" in text
+    # feasible share of the evaluations: NSGA-II 0.25, 0.30, 0.35
+    assert "| mw1 | NSGA-II | 3/3 | 3/3 | 0.3 ± 0.05 | 0.51 ± 0.01 | 0.100 = |" in text
     assert "| 100 ± 0 | 2 ± 0 |" in text
 
 
