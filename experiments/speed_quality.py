@@ -89,7 +89,7 @@ HELDOUT_COUNT = 10
 LOWER_IS_BETTER = {"igd": True, "hv": False, "M_heldout": True}
 
 
-def run_sweep(study: str, seeds: int, out: Path, budget: int | None = None,
+def run_sweep(study: str, seeds: list[int], out: Path, budget: int | None = None,
               only: list[str] | None = None) -> None:
     """Each variant's runs, one process per seed, seed by seed (resumable: a run with a
     complete metrics.json and its CPU record is skipped); each run's CPU seconds (the
@@ -102,7 +102,7 @@ def run_sweep(study: str, seeds: int, out: Path, budget: int | None = None,
     for variant, overrides in variants.items():
         if only and variant not in only:
             continue
-        for seed in range(seeds):
+        for seed in seeds:
             run = out / study / variant / f"seed{seed}"
             if _complete(run) and (run / "cpu_s.json").exists():
                 continue
@@ -261,6 +261,9 @@ def main() -> None:
     ap.add_argument("--list", action="store_true")
     ap.add_argument("--variants", nargs="+", default=None,
                     help="run only these variants of the study (the report shows all)")
+    ap.add_argument("--seed-list", type=int, nargs="+", default=None,
+                    help="run these seeds, in this order (default: 0 .. --seeds - 1); a "
+                         "second process with the seeds in reverse order shares the work")
     ap.add_argument("--at", type=int, default=None,
                     help="compare after this many evaluations (default: the study's)")
     ap.add_argument("--budget", type=int, default=None,
@@ -277,7 +280,8 @@ def main() -> None:
     if args.budget is not None and not 2 <= args.budget <= 10_000:
         sys.exit(f"speed_quality: --budget must be in [2, 10000], got {args.budget}")
     if not args.report_only:
-        run_sweep(args.study, args.seeds, args.out, args.budget, args.variants)
+        run_sweep(args.study, args.seed_list or list(range(args.seeds)), args.out, args.budget,
+                  args.variants)
     at = args.at or args.budget or STUDIES[args.study][3]
     report(args.study, score(args.study, args.out, at), at)
 
