@@ -169,6 +169,7 @@ def test_seconds_per_iteration_at_300_points_d18():
     ({"init_batch_limit": 0}, "init_batch_limit must be an integer >= 1, got 0"),
     ({"prune_samples": 0}, "prune_samples must be an integer >= 1, got 0"),
     ({"refit_guard": 0.0}, r"refit_guard must be a finite number in \(0.0, inf\), got 0.0"),
+    ({"acq_ftol": 0.0}, r"acq_ftol must be a finite number in \(0.0, 1.0\], got 0.0"),
     ({"ref_point": "ideal"},
      "ref_point must be one of feasible, front, all, got 'ideal'"),
 ])
@@ -420,3 +421,50 @@ def test_refit_every_keeps_the_gps_between_optimisations_and_checkpoints_them(tm
             assert saved["iteration"] == alg.iteration - 1
             assert saved["gp"]["fit_info"]["stage"] == stages[-1]
     assert stages == ["mll", "kept_hypers", "kept_hypers", "mll", "kept_hypers"]
+
+
+def _acquisition_calls(monkeypatch, **kwargs) -> tuple[list[tuple[int, ...]], dict]:
+    """Shapes of every qLogNEHVI evaluation of one BO iteration (MW3, D = 4, n_init 8)
+    and the options ``optimize_acqf`` got."""
+    import tmopt.algorithms.qlognehvi as module
+
+    shapes, seen = [], {}
+    real = module.optimize_acqf
+
+    def spy(acq, **kw):
+        forward = acq.forward
+
+        def counting(X):
+            shapes.append(tuple(X.shape))
+            return forward(X)
+
+        acq.forward = counting
+        seen.update(kw)
+        return real(acq, **kw)
+
+    monkeypatch.setattr(module, "optimize_acqf", spy)
+    run(QLogNEHVI(n_init=8, **{**FAST, **kwargs}), PymooBenchmark("mw3", n_var=4),
+        budget=10, seed=2)
+    return shapes, seen
+
+
+def test_acq_ftol_stops_the_acquisitions_lbfgsb_early(monkeypatch):
+    """acq_ftol: L-BFGS-B stops once the log-acquisition improves by less than that
+    fraction, so a loose tolerance takes fewer gradient evaluations than the default,
+    which runs (nearly) all acq_maxiter iterations."""
+    full, seen = _acquisition_calls(monkeypatch, acq_maxiter=40)
+    assert "ftol" not in seen["options"]
+    early, seen = _acquisition_calls(monkeypatch, acq_maxiter=40, acq_ftol=0.05)
+    assert seen["options"]["ftol"] == 0.05
+    lbfgsb = [s for s in early if s[0] == FAST["num_restarts"]]  # not the raw samples
+    assert len(lbfgsb) < len([s for s in full if s[0] == FAST["num_restarts"]])
+
+
+def test_sequential_false_optimises_the_whole_batch_jointly(monkeypatch):
+    """sequential=True (default): each design alone (q = 1 per evaluation, the earlier
+    ones pending); False: L-BFGS-B over all q designs at once."""
+    q = FAST["q"]
+    shapes, seen = _acquisition_calls(monkeypatch)
+    assert seen["sequential"] is True and {s[-2] for s in shapes} == {1}
+    shapes, seen = _acquisition_calls(monkeypatch, sequential=False)
+    assert seen["sequential"] is False and {s[-2] for s in shapes} == {q}

@@ -340,8 +340,8 @@ class QLogNEHVI(Algorithm):
         options = {"batch_limit": self.num_restarts, "maxiter": self.acq_maxiter,
                    "init_batch_limit": self.init_batch_limit or self.num_restarts,
                    "seed": seed}
-        if self.acq_ftol is not None:
-            options["ftol"] = self.acq_ftol
+        if self.acq_ftol is not None:  # BoTorch's batched L-BFGS-B takes ftol or factr
+            options.update(ftol=self.acq_ftol, factr=None)
         return options
 
     def _fit_or_restore(self, Y: np.ndarray, replaying: bool) -> None:
