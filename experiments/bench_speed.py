@@ -279,15 +279,14 @@ def acquisition_settings(problem, data, sizes, settings: list[str], seeds: int =
     baseline), as log(EHVI) minus the defaults' (0 = as good, -0.1 = 10 % less expected
     hypervolume improvement), averaged over the seeds."""
     import torch
-    import yaml
 
     from tmopt.evaluation.evaluator import EvaluatedBatch
     from tmopt.surrogates.gp_posterior import CachedJointGP
 
     parsed = {"defaults": {}}
     for text in settings:
-        parsed[text] = {k: yaml.safe_load(v) for k, v in
-                        (item.split("=", 1) for item in text.split(","))}
+        parsed[text] = {k: _scalar(v) for k, v in (item.split("=", 1)
+                                                    for item in text.split(","))}
     print(f"\nAcquisition settings at a fitted GP (defaults, max_baseline=64; {seeds} seeds; "
           f"judge: {judge_samples} MC samples); {load()}\n")
     print("| n | setting | CPU s | ratio to defaults | log EHVI - defaults' (mean; min) |")
@@ -323,6 +322,17 @@ def acquisition_settings(problem, data, sizes, settings: list[str], seeds: int =
             d = values - base_value
             print(f"| {n} | {label} | {cpu_mean:.2f} | {base_cpu / cpu_mean:.2f} | "
                   f"{d.mean():+.3f}; {d.min():+.3f} |", flush=True)
+
+
+def _scalar(text: str):
+    """A command-line value as YAML reads it, ``1e-4`` (YAML 1.1: a string) as a float."""
+    import yaml
+
+    value = yaml.safe_load(text)
+    try:
+        return float(value) if isinstance(value, str) else value
+    except ValueError:
+        return value
 
 
 def acquisition_call_ms(problem, data, n: int) -> dict[str, float]:
