@@ -99,8 +99,13 @@ def run_sweep(study: str, seeds: list[int], out: Path, budget: int | None = None
     common, variants, _, _ = STUDIES[study]
     if budget is not None:  # the first `budget` evaluations of a longer run, only cheaper
         variants = {v: [*o, f"budget={budget}"] for v, o in variants.items()}
-    env = {**os.environ, "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
-           "MKL_NUM_THREADS": "1"}
+    # BoTorch's fused qLogEHVI kernel is compiled into TORCH_EXTENSIONS_DIR; environments
+    # sharing the default folder rebuild it in turn (~30 s CPU in a run's CPU time): one
+    # folder per environment, built here before any run is timed (docs/speed.md).
+    env = {"TORCH_EXTENSIONS_DIR": str(Path(sys.prefix) / "torch_extensions"), **os.environ,
+           "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+    subprocess.run([sys.executable, "-c", "from botorch.acquisition.multi_objective import "
+                    "logei; logei._try_load_fused_kernel()"], env=env, check=True)
     for variant, overrides in variants.items():
         if only and variant not in only:
             continue
