@@ -385,7 +385,8 @@ def acquisition_call_ms(problem, data, n: int) -> dict[str, float]:
 
 
 def section_qlognehvi(sizes, quick: bool, profile: bool, archive: Path | None = None,
-                      variants: list[str] | None = None, iters: int | None = None) -> float:
+                      variants: list[str] | None = None, iters: int | None = None,
+                      new_settings: dict | None = None) -> float:
     import logging
 
     logging.getLogger("tmopt.algorithms.qlognehvi").setLevel(logging.ERROR)  # no run notice
@@ -406,6 +407,8 @@ def section_qlognehvi(sizes, quick: bool, profile: bool, archive: Path | None = 
     for n in sizes:
         for label, (name, over) in variants.items():
             k = (iters or cycle) if label.startswith("new") else 1
+            if label.startswith("new"):  # --new-settings: the defaults' overrides
+                over = {**over, **(new_settings or {})}
             r = time_qlognehvi(name, problem, data, n, k, profile, **over)
             per[label][n] = r
             stages = ", ".join(f"{x['stage']} {x['cpu']:.1f}" for x in r["rows"])
@@ -754,6 +757,9 @@ def main() -> None:
                     help="instead of timing iterations: one acquisition per setting (the "
                          "defaults' overrides) at each --sizes, CPU and the batch's value "
                          "(needs --archive; acquisition_settings)")
+    ap.add_argument("--new-settings", nargs="+", default=None, metavar="KEY=VALUE",
+                    help="overrides of the defaults for the 'new' variants (e.g. "
+                         "gp_guard_max_iter=5)")
     ap.add_argument("--acq-seeds", type=int, default=2,
                     help="acquisitions per setting and size for --acq-settings")
     ap.add_argument("--iters", type=int, default=None,
@@ -777,8 +783,10 @@ def main() -> None:
         acquisition_settings(problem, data, sizes, args.acq_settings, args.acq_seeds)
         return
     with Clock() as total:
+        new_settings = {k: _scalar(v) for k, v in (x.split("=", 1)
+                                                    for x in args.new_settings or [])}
         r1 = section_qlognehvi(sizes, args.quick, args.profile, args.archive, args.variants,
-                               args.iters) \
+                               args.iters, new_settings) \
             if "qlognehvi" in args.section else float("nan")
         r2 = section_gp(args.quick) if "gp" in args.section else float("nan")
         t, r3 = section_sim(args.quick) if "sim" in args.section else (float("nan"),) * 2
