@@ -350,7 +350,7 @@ def test_the_reference_yaml_pins_the_earlier_settings_and_keeps_their_config_has
             alg.prune_samples, alg.gp_guard_max_iter) == (False, None, 1, None, None, None)
     assert (alg.raw_samples, alg.acq_maxiter, alg.gp_max_iter) == (128, 100, 200)
     added = ("cached_posterior", "init_batch_limit", "refit_every", "refit_guard",
-             "prune_samples", "max_baseline", "gp_guard_max_iter")
+             "prune_samples", "max_baseline", "gp_guard_max_iter", "sequential", "acq_ftol")
     earlier = {k: v for k, v in node.items() if k not in added}
     # the default surrogate group (unused by qLogNEHVI) as earlier runs had it
     gp = OmegaConf.to_container(option_config("surrogate", "gp"))
@@ -369,21 +369,26 @@ def test_the_reference_yaml_pins_the_earlier_settings_and_keeps_their_config_has
 
 
 def test_runs_before_gp_guard_max_iter_keep_their_hash_with_it_at_null():
-    """Runs of the default made before gp_guard_max_iter existed (no key) hash like the
-    default (null), not like the capped setting (10)."""
+    """gp_guard_max_iter's default became 5 (docs/speed.md): runs made before the
+    argument existed (no key) and runs made while its default was null (null named) hash
+    alike, as what they ran with (null), and unlike the new default's runs; collect reads
+    their missing key as null."""
     from omegaconf import OmegaConf
 
     from tmopt.run.cli import option_config
-    from tmopt.run.config import config_hash
+    from tmopt.run.config import config_hash, earlier_value
 
     default = OmegaConf.to_container(option_config("algorithm", "qlognehvi"))
-    assert default["gp_guard_max_iter"] is None is QLogNEHVI().gp_guard_max_iter
+    assert default["gp_guard_max_iter"] == 5 == QLogNEHVI().gp_guard_max_iter
     before = {k: v for k, v in default.items() if k != "gp_guard_max_iter"}
     run = {"seed": 0, "budget": 697, "problem": {"_target_": "x.Problem"}}
     old = config_hash(OmegaConf.create({**run, "algorithm": before}))
-    assert config_hash(OmegaConf.create({**run, "algorithm": default})) == old
+    at_null = {**default, "gp_guard_max_iter": None}
+    assert config_hash(OmegaConf.create({**run, "algorithm": at_null})) == old
+    assert config_hash(OmegaConf.create({**run, "algorithm": default})) != old
     assert config_hash(OmegaConf.create(
         {**run, "algorithm": {**default, "gp_guard_max_iter": 10}})) != old
+    assert earlier_value("algorithm", before, "gp_guard_max_iter") is None
     # the GP surrogate's own guard_max_iter (null by default) leaves every run's hash alone
     gp = OmegaConf.to_container(option_config("surrogate", "gp"))
     assert "guard_max_iter" in gp and gp["guard_max_iter"] is None
@@ -468,3 +473,20 @@ def test_sequential_false_optimises_the_whole_batch_jointly(monkeypatch):
     assert seen["sequential"] is True and {s[-2] for s in shapes} == {1}
     shapes, seen = _acquisition_calls(monkeypatch, sequential=False)
     assert seen["sequential"] is False and {s[-2] for s in shapes} == {q}
+
+
+def test_sequential_and_acq_ftol_at_their_defaults_keep_the_hash_of_runs_before_them():
+    from omegaconf import OmegaConf
+
+    from tmopt.run.cli import option_config
+    from tmopt.run.config import config_hash
+
+    default = OmegaConf.to_container(option_config("algorithm", "qlognehvi"))
+    assert default["sequential"] is True and default["acq_ftol"] is None
+    before = {k: v for k, v in default.items() if k not in ("sequential", "acq_ftol")}
+    run = {"seed": 0, "budget": 300, "problem": {"_target_": "x.Problem"}}
+    old = config_hash(OmegaConf.create({**run, "algorithm": before}))
+    assert config_hash(OmegaConf.create({**run, "algorithm": default})) == old
+    for change in ({"sequential": False}, {"acq_ftol": 1e-4}):
+        assert config_hash(OmegaConf.create(
+            {**run, "algorithm": {**default, **change}})) != old

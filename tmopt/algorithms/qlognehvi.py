@@ -41,11 +41,12 @@ pins the earlier ones, which reproduce earlier runs bit for bit:
         triggers before its turn (warm-started from the last optimum); None = gp_max_iter.
         On the stiffness problem the guard fires at most iterations (docs/speed.md), so
         this cap, not ``refit_every``, sets what the fits cost there. Measured on a Table 3
-        run's archive at 150, 400 and 650 designs: 10 iterations reach the marginal
-        likelihood of 50 within 0.3 % and predict the next 25 designs as well, for 0.2x the
-        time; ~1.7x less CPU per Table 3 run. Opt-in (``algorithm.gp_guard_max_iter=10``)
-        until its end-to-end quality is shown (docs/speed.md: inconclusive at 100
-        evaluations).
+        run's archive at 150, 400 and 650 designs: 5 iterations reach the marginal
+        likelihood of 50 within 0.3 % and predict the next 25 designs as well, for 0.15-0.2x
+        the time; ~1.8x less CPU per Table 3 run. The default since 2026-11-25 (end-to-end
+        check on MW3 against the reference, 10 paired seeds, docs/speed.md); runs made
+        before it ran with None, which ``qlognehvi_reference`` pins and which keeps their
+        config hash.
     kernel: GP kernel, "rbf" or "matern52" (:class:`tmopt.surrogates.gp.GPSurrogate`).
     max_baseline: at most this many observed designs as qLogNEHVI's baseline
         X_baseline: BoTorch's own pruning keeps every design with a positive posterior
@@ -166,7 +167,7 @@ class QLogNEHVI(Algorithm):
                  threads: int | None = 1, cached_posterior: bool = True,
                  init_batch_limit: int | None = 256, refit_every: int = 5,
                  refit_guard: float | None = 4.0, prune_samples: int | None = 512,
-                 gp_guard_max_iter: int | None = None, sequential: bool = True,
+                 gp_guard_max_iter: int | None = 5, sequential: bool = True,
                  acq_ftol: float | None = None) -> None:
         n = self.name
         self.q = check_int(n, "q", q, 1)
@@ -389,10 +390,11 @@ class QLogNEHVI(Algorithm):
 #: A run expected to take longer (CPU minutes) says so when it starts.
 LONG_RUN_MINUTES = 5.0
 #: CPU seconds per iteration at n designs (stiffness problem, D = 18; docs/speed.md):
-#: the default settings (experiments/bench_speed.py on a Table 3 run's archive, the mix of
-#: kept and re-fitted GPs of such a run) and the reference preset (Table 3's runs,
-#: docs/results.md "qLogNEHVI's cost").
-COST_DEFAULT = {150: 5.3, 400: 8.8, 650: 22.7}
+#: the default settings (the acquisition measured by experiments/bench_speed.py on a Table
+#: 3 run's archive plus the mix of kept, guard-capped and scheduled GP fits of such a run:
+#: 14.1-14.6 min per run, docs/speed.md "Round four") and the reference preset (Table 3's
+#: runs, docs/results.md "qLogNEHVI's cost").
+COST_DEFAULT = {150: 4.3, 400: 5.5, 650: 11.0}
 COST_REFERENCE = {50: 5.0, 200: 15.0, 300: 60.0, 500: 240.0, 697: 420.0}
 
 #: Where the reference point's nadir is taken (see :func:`reference_nadir`).
