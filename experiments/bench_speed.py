@@ -268,6 +268,73 @@ def guard_fit_quality(problem, data, sizes, caps) -> None:
         gpmod.fit_gpytorch_mll_scipy = scipy_fit
 
 
+def acquisition_settings(problem, data, sizes, settings: list[str], seeds: int = 2,
+                         judge_samples: int = 1024) -> None:
+    """What the acquisition's settings cost and buy (docs/speed.md, job "acquisition"): at
+    each size n, the default settings' GPs (max_baseline=64) fitted on the first n designs
+    (PREVIOUS_FIT_MAX_ITER, the near-optimum a run has warm-started through), then one
+    acquisition of q designs per setting (the defaults, then each ``key=value[,key=value]``
+    override of QLogNEHVI's constructor) and seed: its CPU s, and the chosen batch's joint
+    qLogNEHVI under one judge (``judge_samples`` Sobol samples, the defaults' pruned
+    baseline), as log(EHVI) minus the defaults' (0 = as good, -0.1 = 10 % less expected
+    hypervolume improvement), averaged over the seeds."""
+    import torch
+
+    from tmopt.evaluation.evaluator import EvaluatedBatch
+    from tmopt.surrogates.gp_posterior import CachedJointGP
+
+    parsed = {"defaults": {}}
+    for text in settings:
+        parsed[text] = {k: _scalar(v) for k, v in (item.split("=", 1)
+                                                    for item in text.split(","))}
+    print(f"\nAcquisition settings at a fitted GP (defaults, max_baseline=64; {seeds} seeds; "
+          f"judge: {judge_samples} MC samples); {load()}\n")
+    print("| n | setting | CPU s | ratio to defaults | log EHVI - defaults' (mean; min) |")
+    print("|---|---|---|---|---|")
+    for n in sizes:
+        alg = algorithm_from_yaml("qlognehvi", max_baseline=64)
+        alg.setup(problem, budget=n + 5, seed=0)
+        alg.tell(EvaluatedBatch(X=data.X[:n], F=data.F[:n], G=data.G[:n],
+                                failed=data.failed[:n], reason=[""] * n))
+        Y, ref = alg._training_targets()
+        alg.gp.max_iter = PREVIOUS_FIT_MAX_ITER
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            alg.gp.fit(alg.U, Y)
+            with torch.random.fork_rng():
+                torch.manual_seed(0)
+                judge = alg.acquisition(CachedJointGP(alg.gp), ref, 0, judge_samples)
+        defaults = {k: getattr(alg, k) for k in {k for o in parsed.values() for k in o}}
+        base_cpu, base_value = None, None
+        for label, over in parsed.items():
+            for k, v in {**defaults, **over}.items():
+                setattr(alg, k, v)
+            cpu, values = [], []
+            for seed in range(seeds):
+                with Clock() as c:
+                    X = alg._maximise(ref, 1000 + seed)
+                cpu.append(c.cpu)
+                with torch.no_grad():
+                    values.append(float(judge(torch.as_tensor(X)[None])))
+            cpu_mean, values = float(np.mean(cpu)), np.array(values)
+            if base_cpu is None:
+                base_cpu, base_value = cpu_mean, values
+            d = values - base_value
+            print(f"| {n} | {label} | {cpu_mean:.2f} | {base_cpu / cpu_mean:.2f} | "
+                  f"{d.mean():+.3f}; {d.min():+.3f} |", flush=True)
+
+
+def _scalar(text: str):
+    """A command-line value as YAML reads it, ``1e-4`` (YAML 1.1: a string) as a float."""
+    import yaml
+
+    value = yaml.safe_load(text)
+    try:
+        return float(value) if isinstance(value, str) else value
+    except ValueError:
+        return value
+
+
 def acquisition_call_ms(problem, data, n: int) -> dict[str, float]:
     """CPU ms of one qLogNEHVI evaluation (value + gradient, 4 restarts) and of scoring
     256 raw samples, through GPyTorch and through CachedJointGP, on the same acquisition
@@ -318,7 +385,8 @@ def acquisition_call_ms(problem, data, n: int) -> dict[str, float]:
 
 
 def section_qlognehvi(sizes, quick: bool, profile: bool, archive: Path | None = None,
-                      variants: list[str] | None = None, iters: int | None = None) -> float:
+                      variants: list[str] | None = None, iters: int | None = None,
+                      new_settings: dict | None = None) -> float:
     import logging
 
     logging.getLogger("tmopt.algorithms.qlognehvi").setLevel(logging.ERROR)  # no run notice
@@ -339,6 +407,8 @@ def section_qlognehvi(sizes, quick: bool, profile: bool, archive: Path | None = 
     for n in sizes:
         for label, (name, over) in variants.items():
             k = (iters or cycle) if label.startswith("new") else 1
+            if label.startswith("new"):  # --new-settings: the defaults' overrides
+                over = {**over, **(new_settings or {})}
             r = time_qlognehvi(name, problem, data, n, k, profile, **over)
             per[label][n] = r
             stages = ", ".join(f"{x['stage']} {x['cpu']:.1f}" for x in r["rows"])
@@ -683,6 +753,15 @@ def main() -> None:
     ap.add_argument("--run-cost", type=Path, nargs=2, default=None, metavar=("LOG", "COSTS"),
                     help="per-run CPU of a qLogNEHVI run from its tmopt.log's stages and a "
                          "JSON file of per-iteration costs (run_cost_from_log)")
+    ap.add_argument("--acq-settings", nargs="+", default=None, metavar="KEY=VALUE[,...]",
+                    help="instead of timing iterations: one acquisition per setting (the "
+                         "defaults' overrides) at each --sizes, CPU and the batch's value "
+                         "(needs --archive; acquisition_settings)")
+    ap.add_argument("--new-settings", nargs="+", default=None, metavar="KEY=VALUE",
+                    help="overrides of the defaults for the 'new' variants (e.g. "
+                         "gp_guard_max_iter=5)")
+    ap.add_argument("--acq-seeds", type=int, default=2,
+                    help="acquisitions per setting and size for --acq-settings")
     ap.add_argument("--iters", type=int, default=None,
                     help="iterations of the default settings per size (default: one refit "
                          "cycle, refit_every); the reference variants run one")
@@ -699,9 +778,15 @@ def main() -> None:
         problem, data = stiffness_archive(max(sizes) + 25, args.archive)
         guard_fit_quality(problem, data, sizes, args.guard_fits)
         return
+    if args.acq_settings:
+        problem, data = stiffness_archive(max(sizes), args.archive)
+        acquisition_settings(problem, data, sizes, args.acq_settings, args.acq_seeds)
+        return
     with Clock() as total:
+        new_settings = {k: _scalar(v) for k, v in (x.split("=", 1)
+                                                    for x in args.new_settings or [])}
         r1 = section_qlognehvi(sizes, args.quick, args.profile, args.archive, args.variants,
-                               args.iters) \
+                               args.iters, new_settings) \
             if "qlognehvi" in args.section else float("nan")
         r2 = section_gp(args.quick) if "gp" in args.section else float("nan")
         t, r3 = section_sim(args.quick) if "sim" in args.section else (float("nan"),) * 2

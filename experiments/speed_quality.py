@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import subprocess
 import sys
 from pathlib import Path
@@ -62,6 +63,18 @@ STUDIES = {
          "before": ["algorithm=qlognehvi", "budget=100"],
          "reference": ["algorithm=qlognehvi_reference", "budget=100"]},
         ("M_heldout",), 100),
+    # A suite problem where qLogNEHVI finds feasible designs within its first iterations
+    # (MW3 at D = 6: 15-30 % of the designs feasible after 40 evaluations), small enough
+    # for the reference to run to the end on 10 seeds: 14 initial designs + 10 iterations
+    # (the reference's acquisition grows from ~5 s CPU per iteration at 50 designs to
+    # ~40 s at 75 on a loaded core). The fast setting against the reference, paired by
+    # seed (the same initial Sobol designs), with each run's CPU time (docs/speed.md).
+    "qlognehvi-mw3-d6": (
+        ["problem=mw3", "problem.n_var=6", "budget=64"],
+        {"new": ["algorithm=qlognehvi", "algorithm.gp_guard_max_iter=5"],
+         "cap10": ["algorithm=qlognehvi", "algorithm.gp_guard_max_iter=10"],
+         "reference": ["algorithm=qlognehvi_reference"]},
+        ("igd", "hv"), None),
     "gp-mw3": (
         ["problem=mw3", "problem.n_var=10", "algorithm=mgsaea_ipc", "surrogate=gp",
          "budget=609"],
@@ -78,19 +91,42 @@ HELDOUT_COUNT = 10
 LOWER_IS_BETTER = {"igd": True, "hv": False, "M_heldout": True}
 
 
-def run_sweep(study: str, seeds: int, out: Path, budget: int | None = None) -> None:
+def run_sweep(study: str, seeds: list[int], out: Path, budget: int | None = None,
+              only: list[str] | None = None) -> None:
+    """Each variant's runs, one process per seed, seed by seed (resumable: a run with a
+    complete metrics.json and its CPU record is skipped); each run's CPU seconds (the
+    process and its children) go to its folder's ``cpu_s.json``."""
     common, variants, _, _ = STUDIES[study]
     if budget is not None:  # the first `budget` evaluations of a longer run, only cheaper
         variants = {v: [*o, f"budget={budget}"] for v, o in variants.items()}
-    env = {**os.environ, "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
-           "MKL_NUM_THREADS": "1"}
+    # BoTorch's fused qLogEHVI kernel is compiled into TORCH_EXTENSIONS_DIR; environments
+    # sharing the default folder rebuild it in turn (~30 s CPU in a run's CPU time): one
+    # folder per environment, built here before any run is timed (docs/speed.md).
+    env = {"TORCH_EXTENSIONS_DIR": str(Path(sys.prefix) / "torch_extensions"), **os.environ,
+           "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+    subprocess.run([sys.executable, "-c", "from botorch.acquisition.multi_objective import "
+                    "logei; logei._try_load_fused_kernel()"], env=env, check=True)
     for variant, overrides in variants.items():
-        cmd = [sys.executable, "-m", "tmopt", "-m", *common, *overrides,
-               f"seed={','.join(str(s) for s in range(seeds))}", "plots=false",
-               f"hydra.sweep.dir={out / study / variant}",
-               "hydra.sweep.subdir=seed${seed}"]
-        print("$", " ".join(cmd[1:]), flush=True)
-        subprocess.run(cmd, cwd=REPO, env=env, check=True)
+        if only and variant not in only:
+            continue
+        for seed in seeds:
+            run = out / study / variant / f"seed{seed}"
+            if _complete(run) and (run / "cpu_s.json").exists():
+                continue
+            cmd = [sys.executable, "-m", "tmopt", "-m", *common, *overrides, f"seed={seed}",
+                   "plots=false", f"hydra.sweep.dir={out / study / variant}",
+                   "hydra.sweep.subdir=seed${seed}"]
+            print("$", " ".join(cmd[1:]), flush=True)
+            before = resource.getrusage(resource.RUSAGE_CHILDREN)
+            subprocess.run(cmd, cwd=REPO, env=env, check=True)
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            cpu = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+            (run / "cpu_s.json").write_text(json.dumps({"cpu_s": cpu}))
+
+
+def _complete(run: Path) -> bool:
+    path = run / "metrics.json"
+    return path.exists() and json.loads(path.read_text()).get("status") == "complete"
 
 
 def heldout_m(run: Path, x: np.ndarray) -> float:
@@ -116,6 +152,8 @@ def run_values(run: Path, metrics: dict, keys, at: int | None) -> dict | None:
         data = data.rows(0, at)
     pareto, best = final_choice(data)
     out = {"wall_time_s": metrics.get("wall_time_s") if at is None else None}
+    if at is None and (run / "cpu_s.json").exists():
+        out["cpu_s"] = json.loads((run / "cpu_s.json").read_text())["cpu_s"]
     if "M_heldout" in keys:
         cache = run / f"heldout_m{HELDOUT_COUNT}_at{at or len(data)}.json"
         if not cache.exists():
@@ -128,29 +166,74 @@ def run_values(run: Path, metrics: dict, keys, at: int | None) -> dict | None:
     return out
 
 
-def score(study: str, out: Path, at: int | None) -> dict[str, dict[str, list[float]]]:
+def score(study: str, out: Path, at: int | None) -> dict[str, dict[str, dict[int, float]]]:
+    """{variant: {metric: {seed: value}}} over the variant's complete runs."""
     _, variants, keys, _ = STUDIES[study]
-    table: dict[str, dict[str, list[float]]] = {}
+    table: dict[str, dict[str, dict[int, float]]] = {}
     for variant in variants:
-        rows: dict[str, list[float]] = {k: [] for k in (*keys, "wall_time_s")}
+        rows: dict[str, dict[int, float]] = {k: {} for k in (*keys, "wall_time_s", "cpu_s")}
         for run in sorted((out / study / variant).glob("seed*")):
-            path = run / "metrics.json"
-            if not path.exists():
+            if not _complete(run):
                 continue
-            metrics = json.loads(path.read_text())
-            if metrics.get("status") != "complete":
-                continue
+            metrics = json.loads((run / "metrics.json").read_text())
             values = run_values(run, metrics, keys, at)
             if values is not None:
                 for k in rows:
-                    rows[k].append(values.get(k))
+                    rows[k][int(run.name[4:])] = values.get(k)
         table[variant] = rows
     return table
 
 
 def report(study: str, table: dict, at: int | None) -> None:
     for other in (v for v in table if v != "new"):
-        report_pair(study, table["new"], table[other], other, at)
+        report_pair(study, {k: list(v.values()) for k, v in table["new"].items()},
+                    {k: list(v.values()) for k, v in table[other].items()}, other, at)
+        report_paired(study, table["new"], table[other], other)
+
+
+def report_paired(study: str, new: dict, ref: dict, other: str) -> None:
+    """Per seed (the seeds both variants finished): each metric of both, and the CPU
+    ratio other / new; then medians and the two-sided Wilcoxon signed-rank test of the
+    paired differences (the same seed = the same initial designs)."""
+    from scipy.stats import wilcoxon
+
+    keys = [k for k in new if k not in ("wall_time_s", "cpu_s")]
+    seeds = sorted(set(new[keys[0]]) & set(ref[keys[0]]))
+    if not seeds:
+        return
+    print(f"\n### {study}: new vs {other}, paired by seed ({len(seeds)} seeds)\n")
+    print("| seed | " + " | ".join(f"{k} new | {k} {other}" for k in keys)
+          + f" | CPU s new | CPU s {other} | {other} / new |")
+    print("|---|" + "---|---|" * len(keys) + "---|---|---|")
+    for s in seeds:
+        cells = " | ".join(f"{_fmt(new[k].get(s))} | {_fmt(ref[k].get(s))}" for k in keys)
+        a, b = new["cpu_s"].get(s), ref["cpu_s"].get(s)
+        print(f"| {s} | {cells} | {_fmt(a)} | {_fmt(b)} | {_fmt(a and b and b / a)} |")
+    for k in keys:
+        pairs = [(new[k].get(s), ref[k].get(s)) for s in seeds]
+        pairs = np.array([p for p in pairs if None not in p and np.all(np.isfinite(p))])
+        if len(pairs) < 2:
+            print(f"{k}: {len(pairs)} finite pairs")
+            continue
+        diff = pairs[:, 0] - pairs[:, 1]
+        p = wilcoxon(diff).pvalue if np.any(diff != 0) else 1.0
+        wins = int(np.sum(diff < 0 if LOWER_IS_BETTER.get(k, True) else diff > 0))
+        print(f"{k}: median new {np.median(pairs[:, 0]):.4g}, {other} "
+              f"{np.median(pairs[:, 1]):.4g}; median paired difference (new - {other}) "
+              f"{np.median(diff):+.3g}; new better in {wins}/{len(pairs)}; "
+              f"signed-rank p = {fmt_p(p)}")
+    timed = [s for s in seeds if new["cpu_s"].get(s) and ref["cpu_s"].get(s)]
+    if not timed:
+        return
+    ratio = np.array([ref["cpu_s"][s] / new["cpu_s"][s] for s in timed])
+    print(f"CPU per run, {other} / new: median {np.median(ratio):.1f} "
+          f"(range {ratio.min():.1f}-{ratio.max():.1f}); total "
+          f"{sum(ref['cpu_s'][s] for s in timed) / sum(new['cpu_s'][s] for s in timed):.1f} "
+          f"({len(timed)} seeds timed)")
+
+
+def _fmt(x) -> str:
+    return "" if x is None else f"{x:.4g}"
 
 
 def report_pair(study: str, new: dict, ref: dict, other: str, at: int | None) -> None:
@@ -183,6 +266,11 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=REPO / "multirun" / "speed_quality")
     ap.add_argument("--report-only", action="store_true")
     ap.add_argument("--list", action="store_true")
+    ap.add_argument("--variants", nargs="+", default=None,
+                    help="run only these variants of the study (the report shows all)")
+    ap.add_argument("--seed-list", type=int, nargs="+", default=None,
+                    help="run these seeds, in this order (default: 0 .. --seeds - 1); a "
+                         "second process with the seeds in reverse order shares the work")
     ap.add_argument("--at", type=int, default=None,
                     help="compare after this many evaluations (default: the study's)")
     ap.add_argument("--budget", type=int, default=None,
@@ -199,7 +287,8 @@ def main() -> None:
     if args.budget is not None and not 2 <= args.budget <= 10_000:
         sys.exit(f"speed_quality: --budget must be in [2, 10000], got {args.budget}")
     if not args.report_only:
-        run_sweep(args.study, args.seeds, args.out, args.budget)
+        run_sweep(args.study, args.seed_list or list(range(args.seeds)), args.out, args.budget,
+                  args.variants)
     at = args.at or args.budget or STUDIES[args.study][3]
     report(args.study, score(args.study, args.out, at), at)
 

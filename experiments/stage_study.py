@@ -18,6 +18,9 @@ the stage columns ``n/a``:
 
 ``--compact``: one "setting" column instead of the keys after the first, naming the keys
 whose value differs from ``--reference`` ("tmopt defaults" where none does).
+``--paired``: two more columns, the Wilcoxon signed-rank p of IGD and HV against the
+reference setting over the seeds both have (the same seed gives both settings the same
+initial sample, so the seeds pair).
 """
 
 from __future__ import annotations
@@ -30,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from tmopt.reporting.runs import COMPLETE, discover_runs
-from tmopt.reporting.stats import fmt_p, rank_sum
+from tmopt.reporting.stats import fmt_p, rank_sum, signed_rank
 
 
 def _median(values: list) -> str:
@@ -45,10 +48,11 @@ def _mean(values: list) -> str:
 
 
 def stage_rows(sweep: Path, keys: list[str], reference: dict[str, str],
-               rescore: bool = False) -> list[list[str]]:
+               rescore: bool = False, paired: bool = False) -> list[list[str]]:
     """One row per setting: key values, runs, stage-two runs, switch iteration, mc, IGD, HV
     and their p against the reference setting (``rescore``: IGD and HV recomputed from
-    the archives against today's fronts, as ``collect --rescore``)."""
+    the archives against today's fronts, as ``collect --rescore``; ``paired``: then the
+    signed-rank p of IGD and HV over the seeds both settings ran)."""
     from tmopt.reporting.anytime import rescored
 
     groups: dict[tuple, list[dict]] = defaultdict(list)
@@ -73,7 +77,15 @@ def stage_rows(sweep: Path, keys: list[str], reference: dict[str, str],
                      _median([m["min"] for m in mc]), _median([m["median"] for m in mc]),
                      _mean([m.get("igd") for m in runs]), tests[0],
                      _mean([m.get("hv") for m in runs]), tests[1]])
+        if paired:
+            rows[-1] += [fmt_p(signed_rank(_by_seed(runs, q), _by_seed(theirs, q)))
+                         if theirs else "" for q in ("igd", "hv")]
     return rows
+
+
+def _by_seed(runs: list[dict], metric: str) -> dict:
+    """``metric`` of each run keyed by its seed."""
+    return {m.get("seed"): m.get(metric) for m in runs}
 
 
 def _compact(header: list[str], rows: list[list[str]], keys: list[str],
@@ -100,6 +112,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="recompute IGD and HV from the archives against today's fronts")
     ap.add_argument("--compact", action="store_true",
                     help="one 'setting' column: the keys (after the first) off --reference")
+    ap.add_argument("--paired", action="store_true",
+                    help="add the signed-rank p of IGD and HV, paired by seed")
     args = ap.parse_args(argv)
     if not args.sweep.is_dir():
         print(f"stage_study: sweep folder {args.sweep} does not exist", file=sys.stderr)
@@ -107,8 +121,9 @@ def main(argv: list[str] | None = None) -> int:
     keys = args.keys.split(",")
     reference = dict(item.split("=", 1) for item in args.reference.split(","))
     header = [*keys, "runs", "stage two", "switch iteration (median)", "min mc (median)",
-              "median mc (median)", "IGD", "p (IGD)", "HV", "p (HV)"]
-    rows = stage_rows(args.sweep, keys, reference, args.rescore)
+              "median mc (median)", "IGD", "p (IGD)", "HV", "p (HV)",
+              *(["p paired (IGD)", "p paired (HV)"] if args.paired else [])]
+    rows = stage_rows(args.sweep, keys, reference, args.rescore, args.paired)
     if rows and all(row[len(keys) + 1] == "n/a" for row in rows):  # no MGSAEA-family run
         stage_columns = set(range(len(keys) + 1, len(keys) + 5))
         header, *rows = ([c for i, c in enumerate(r) if i not in stage_columns]

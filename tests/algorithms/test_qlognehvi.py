@@ -169,6 +169,7 @@ def test_seconds_per_iteration_at_300_points_d18():
     ({"init_batch_limit": 0}, "init_batch_limit must be an integer >= 1, got 0"),
     ({"prune_samples": 0}, "prune_samples must be an integer >= 1, got 0"),
     ({"refit_guard": 0.0}, r"refit_guard must be a finite number in \(0.0, inf\), got 0.0"),
+    ({"acq_ftol": 0.0}, r"acq_ftol must be a finite number in \(0.0, 1.0\], got 0.0"),
     ({"ref_point": "ideal"},
      "ref_point must be one of feasible, front, all, got 'ideal'"),
 ])
@@ -349,7 +350,7 @@ def test_the_reference_yaml_pins_the_earlier_settings_and_keeps_their_config_has
             alg.prune_samples, alg.gp_guard_max_iter) == (False, None, 1, None, None, None)
     assert (alg.raw_samples, alg.acq_maxiter, alg.gp_max_iter) == (128, 100, 200)
     added = ("cached_posterior", "init_batch_limit", "refit_every", "refit_guard",
-             "prune_samples", "max_baseline", "gp_guard_max_iter")
+             "prune_samples", "max_baseline", "gp_guard_max_iter", "sequential", "acq_ftol")
     earlier = {k: v for k, v in node.items() if k not in added}
     # the default surrogate group (unused by qLogNEHVI) as earlier runs had it
     gp = OmegaConf.to_container(option_config("surrogate", "gp"))
@@ -368,21 +369,26 @@ def test_the_reference_yaml_pins_the_earlier_settings_and_keeps_their_config_has
 
 
 def test_runs_before_gp_guard_max_iter_keep_their_hash_with_it_at_null():
-    """Runs of the default made before gp_guard_max_iter existed (no key) hash like the
-    default (null), not like the capped setting (10)."""
+    """gp_guard_max_iter's default became 5 (docs/speed.md): runs made before the
+    argument existed (no key) and runs made while its default was null (null named) hash
+    alike, as what they ran with (null), and unlike the new default's runs; collect reads
+    their missing key as null."""
     from omegaconf import OmegaConf
 
     from tmopt.run.cli import option_config
-    from tmopt.run.config import config_hash
+    from tmopt.run.config import config_hash, earlier_value
 
     default = OmegaConf.to_container(option_config("algorithm", "qlognehvi"))
-    assert default["gp_guard_max_iter"] is None is QLogNEHVI().gp_guard_max_iter
+    assert default["gp_guard_max_iter"] == 5 == QLogNEHVI().gp_guard_max_iter
     before = {k: v for k, v in default.items() if k != "gp_guard_max_iter"}
     run = {"seed": 0, "budget": 697, "problem": {"_target_": "x.Problem"}}
     old = config_hash(OmegaConf.create({**run, "algorithm": before}))
-    assert config_hash(OmegaConf.create({**run, "algorithm": default})) == old
+    at_null = {**default, "gp_guard_max_iter": None}
+    assert config_hash(OmegaConf.create({**run, "algorithm": at_null})) == old
+    assert config_hash(OmegaConf.create({**run, "algorithm": default})) != old
     assert config_hash(OmegaConf.create(
         {**run, "algorithm": {**default, "gp_guard_max_iter": 10}})) != old
+    assert earlier_value("algorithm", before, "gp_guard_max_iter") is None
     # the GP surrogate's own guard_max_iter (null by default) leaves every run's hash alone
     gp = OmegaConf.to_container(option_config("surrogate", "gp"))
     assert "guard_max_iter" in gp and gp["guard_max_iter"] is None
@@ -420,3 +426,67 @@ def test_refit_every_keeps_the_gps_between_optimisations_and_checkpoints_them(tm
             assert saved["iteration"] == alg.iteration - 1
             assert saved["gp"]["fit_info"]["stage"] == stages[-1]
     assert stages == ["mll", "kept_hypers", "kept_hypers", "mll", "kept_hypers"]
+
+
+def _acquisition_calls(monkeypatch, **kwargs) -> tuple[list[tuple[int, ...]], dict]:
+    """Shapes of every qLogNEHVI evaluation of one BO iteration (MW3, D = 4, n_init 8)
+    and the options ``optimize_acqf`` got."""
+    import tmopt.algorithms.qlognehvi as module
+
+    shapes, seen = [], {}
+    real = module.optimize_acqf
+
+    def spy(acq, **kw):
+        forward = acq.forward
+
+        def counting(X):
+            shapes.append(tuple(X.shape))
+            return forward(X)
+
+        acq.forward = counting
+        seen.update(kw)
+        return real(acq, **kw)
+
+    monkeypatch.setattr(module, "optimize_acqf", spy)
+    run(QLogNEHVI(n_init=8, **{**FAST, **kwargs}), PymooBenchmark("mw3", n_var=4),
+        budget=10, seed=2)
+    return shapes, seen
+
+
+def test_acq_ftol_stops_the_acquisitions_lbfgsb_early(monkeypatch):
+    """acq_ftol: L-BFGS-B stops once the log-acquisition improves by less than that
+    fraction, so a loose tolerance takes fewer gradient evaluations than the default,
+    which runs (nearly) all acq_maxiter iterations."""
+    full, seen = _acquisition_calls(monkeypatch, acq_maxiter=40)
+    assert "ftol" not in seen["options"]
+    early, seen = _acquisition_calls(monkeypatch, acq_maxiter=40, acq_ftol=0.05)
+    assert seen["options"]["ftol"] == 0.05
+    lbfgsb = [s for s in early if s[0] == FAST["num_restarts"]]  # not the raw samples
+    assert len(lbfgsb) < len([s for s in full if s[0] == FAST["num_restarts"]])
+
+
+def test_sequential_false_optimises_the_whole_batch_jointly(monkeypatch):
+    """sequential=True (default): each design alone (q = 1 per evaluation, the earlier
+    ones pending); False: L-BFGS-B over all q designs at once."""
+    q = FAST["q"]
+    shapes, seen = _acquisition_calls(monkeypatch)
+    assert seen["sequential"] is True and {s[-2] for s in shapes} == {1}
+    shapes, seen = _acquisition_calls(monkeypatch, sequential=False)
+    assert seen["sequential"] is False and {s[-2] for s in shapes} == {q}
+
+
+def test_sequential_and_acq_ftol_at_their_defaults_keep_the_hash_of_runs_before_them():
+    from omegaconf import OmegaConf
+
+    from tmopt.run.cli import option_config
+    from tmopt.run.config import config_hash
+
+    default = OmegaConf.to_container(option_config("algorithm", "qlognehvi"))
+    assert default["sequential"] is True and default["acq_ftol"] is None
+    before = {k: v for k, v in default.items() if k not in ("sequential", "acq_ftol")}
+    run = {"seed": 0, "budget": 300, "problem": {"_target_": "x.Problem"}}
+    old = config_hash(OmegaConf.create({**run, "algorithm": before}))
+    assert config_hash(OmegaConf.create({**run, "algorithm": default})) == old
+    for change in ({"sequential": False}, {"acq_ftol": 1e-4}):
+        assert config_hash(OmegaConf.create(
+            {**run, "algorithm": {**default, **change}})) != old

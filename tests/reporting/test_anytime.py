@@ -52,6 +52,9 @@ def test_benchmark_prefixes_get_the_indicators_of_their_feasible_front():
     assert prefix_values(problem, data, 1)["hv"] == pytest.approx(1.0)  # (2-1) x (2-1)
     # row 1 is infeasible; row 2 dominates row 0: HV (2-0.5)^2
     assert prefix_values(problem, data, 3)["hv"] == pytest.approx(2.25)
+    # the feasible share of the prefix's evaluations (G <= 0): 1/1, then 2/3
+    assert prefix_values(problem, data, 1)["feasible_ratio"] == 1.0
+    assert prefix_values(problem, data, 3)["feasible_ratio"] == pytest.approx(2 / 3)
     front = np.array([[0.0, 1.0], [1.0, 0.0]])
     out = prefix_values(problem, data, 3, front)
     assert out["igd"] == pytest.approx(np.hypot(0.5, 0.5))  # both front points 0.707 away

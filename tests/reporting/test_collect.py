@@ -16,7 +16,7 @@ import pytest
 
 from tmopt.reporting.collect import collect, main
 from tmopt.reporting.runs import deduplicate, discover_runs, setting_keys
-from tmopt.reporting.stats import fmt_mean_std, mark, mean_std, rank_sum
+from tmopt.reporting.stats import fmt_mean_std, mark, mean_std, rank_sum, signed_rank
 from tmopt.reporting.tables import STIFFNESS_METRICS, summarise
 
 
@@ -24,7 +24,7 @@ def _run(root: Path, name: str, overrides: dict, *, algorithm: str = "nsga2",
          scheme: str = "B", n_freq: int = 3, seed: int = 0, m: float | None = 5.0,
          status: str = "complete", problem: str = "stiffness", igd: float | None = None,
          hv: float | None = None, below_floor: tuple[str, ...] = (),
-         stage: int | None = None) -> Path:
+         stage: int | None = None, feasible_ratio: float | None = None) -> Path:
     """A run folder as the CLI leaves it (only the files collect reads)."""
     path = root / name
     (path / ".hydra").mkdir(parents=True)
@@ -49,6 +49,7 @@ def _run(root: Path, name: str, overrides: dict, *, algorithm: str = "nsga2",
                    "n_evals": 100, "wall_time_s": 2.0, "pareto_size": 1,
                    "chosen": {"feasible": True}, "identification": ident,
                    "config_hash": f"{name}-hash", "igd": igd, "hv": hv,
+                   "feasible_ratio": feasible_ratio,
                    "algorithm_summary": {} if stage is None else {"stage_reached": stage}}
         if m is not None:  # held-out scores: the search draw's M plus 1 (luck removed)
             stat = lambda v: {"mean": v, "std": 1.0, "median": v}  # noqa: E731
@@ -143,6 +144,23 @@ def test_rank_sum_p_values_equal_the_exact_distribution():
     assert mark([1, 2, 3, 4, 5], [6, 7, 8, 9, 10], 2 / 252) == "+"
     assert mark([6, 7, 8, 9, 10], [1, 2, 3, 4, 5], 2 / 252) == "-"
     assert mark([1, 2, 3], [1, 2, 4], 0.8) == "="
+
+
+def test_signed_rank_pairs_by_seed_and_equals_the_exact_distribution():
+    # Every one of n pairs favours the same side: two-sided exact p = 2 / 2^n.
+    a = {s: float(s) for s in range(5)}
+    b = {s: float(s) + 1 + s / 10 for s in range(5)}
+    assert signed_rank(a, b) == pytest.approx(2 / 32)
+    # Pairing is by key: seeds only one side has (7) and non-finite values (4) drop out,
+    # leaving 4 pairs (2 / 16); unpaired, the same numbers would give another p.
+    b_more = {**b, 7: -100.0, 4: None}
+    assert signed_rank(a, b_more) == pytest.approx(2 / 16)
+    # Signed ranks of d = (-1, -2, +3, -4): W+ = 3; P(W+ <= 3) = 5/16, two-sided 10/16.
+    c = {0: 1.0, 1: 2.0, 2: 6.0, 3: 4.0}
+    d = {0: 2.0, 1: 4.0, 2: 3.0, 3: 8.0}
+    assert signed_rank(c, d) == pytest.approx(10 / 16)
+    assert signed_rank(a, dict(a)) == 1.0  # no pair differs
+    assert math.isnan(signed_rank({0: 1.0}, {0: 2.0, 1: 3.0}))  # one pair: untestable
     assert mark([1, 2, 3, 4, 5], [6, 7, 8, 9, 10], 2 / 252, lower_is_better=False) == "-"
 
 
@@ -180,7 +198,7 @@ def test_benchmark_table_and_figures_for_suite_runs(tmp_path):
             _run(tmp_path, f"{algo}{seed}", {"algorithm": algo, "problem": "mw1",
                                              "seed": seed},
                  algorithm=algo, problem="mw1", seed=seed, igd=igd + 0.01 * seed,
-                 hv=1 - igd, m=None)
+                 hv=1 - igd, m=None, feasible_ratio=igd / 2 + 0.05 * seed)
     out = tmp_path / "out"
     files = {p.name for p in collect(tmp_path, out)}
     assert {"benchmarks.md", "benchmarks.csv", "benchmarks_igd.png",
@@ -188,7 +206,8 @@ def test_benchmark_table_and_figures_for_suite_runs(tmp_path):
     assert "table3.md" not in files  # no stiffness run
     text = (out / "benchmarks.md").read_text()
     # 3 vs 3 completely separated: exact p = 2/20 = 0.1, not significant at 0.05
-    assert "| mw1 | NSGA-II | 3/3 | 3/3 | 0.51 ± 0.01 | 0.100 = |" in text
+    # feasible share of the evaluations: NSGA-II 0.25, 0.30, 0.35
+    assert "| mw1 | NSGA-II | 3/3 | 3/3 | 0.3 ± 0.05 | 0.51 ± 0.01 | 0.100 = |" in text
     assert "| 100 ± 0 | 2 ± 0 |" in text
 
 

@@ -41,11 +41,12 @@ pins the earlier ones, which reproduce earlier runs bit for bit:
         triggers before its turn (warm-started from the last optimum); None = gp_max_iter.
         On the stiffness problem the guard fires at most iterations (docs/speed.md), so
         this cap, not ``refit_every``, sets what the fits cost there. Measured on a Table 3
-        run's archive at 150, 400 and 650 designs: 10 iterations reach the marginal
-        likelihood of 50 within 0.3 % and predict the next 25 designs as well, for 0.2x the
-        time; ~1.7x less CPU per Table 3 run. Opt-in (``algorithm.gp_guard_max_iter=10``)
-        until its end-to-end quality is shown (docs/speed.md: inconclusive at 100
-        evaluations).
+        run's archive at 150, 400 and 650 designs: 5 iterations reach the marginal
+        likelihood of 50 within 0.3 % and predict the next 25 designs as well, for 0.15-0.2x
+        the time; ~1.8x less CPU per Table 3 run. The default since 2026-11-25 (end-to-end
+        check on MW3 against the reference, 10 paired seeds, docs/speed.md); runs made
+        before it ran with None, which ``qlognehvi_reference`` pins and which keeps their
+        config hash.
     kernel: GP kernel, "rbf" or "matern52" (:class:`tmopt.surrogates.gp.GPSurrogate`).
     max_baseline: at most this many observed designs as qLogNEHVI's baseline
         X_baseline: BoTorch's own pruning keeps every design with a positive posterior
@@ -80,6 +81,13 @@ pins the earlier ones, which reproduce earlier runs bit for bit:
         optimal (``prune_inferior_points_multi_objective``); sampling all n designs
         jointly is O(samples x n^2) per output: 1.0 s CPU at 500 designs with 2048
         samples, 0.32 s with 512, baselines of 11-12 designs either way (docs/speed.md).
+    sequential: True = ``optimize_acqf``'s sequential greedy batch (q L-BFGS-B runs over
+        D variables, each design conditioned on those before it as pending points);
+        False = one joint L-BFGS-B run over the q x D variables of the whole batch.
+    acq_ftol: L-BFGS-B's relative tolerance on the acquisition's value (SciPy's
+        ``ftol``), an early stop of the inner optimisation once an iteration improves
+        the restarts' summed log-acquisition by less than this fraction; None = SciPy's
+        default (2.2e-9, i.e. nearly always ``acq_maxiter`` iterations).
 
 One iteration (every design evaluated for real so far, failed ones left out):
 
@@ -159,7 +167,8 @@ class QLogNEHVI(Algorithm):
                  threads: int | None = 1, cached_posterior: bool = True,
                  init_batch_limit: int | None = 256, refit_every: int = 5,
                  refit_guard: float | None = 4.0, prune_samples: int | None = 512,
-                 gp_guard_max_iter: int | None = None) -> None:
+                 gp_guard_max_iter: int | None = 5, sequential: bool = True,
+                 acq_ftol: float | None = None) -> None:
         n = self.name
         self.q = check_int(n, "q", q, 1)
         super().__init__(pop_size=max(self.q, 2))  # the batch is all the "population" it has
@@ -187,6 +196,9 @@ class QLogNEHVI(Algorithm):
             n, "prune_samples", prune_samples, 1)
         self.gp_guard_max_iter = None if gp_guard_max_iter is None else check_int(
             n, "gp_guard_max_iter", gp_guard_max_iter, 1)
+        self.sequential = bool(sequential)
+        self.acq_ftol = None if acq_ftol is None else check_number(
+            n, "acq_ftol", acq_ftol, 0.0, 1.0, low_open=True)
 
     # ---- framework hooks --------------------------------------------------------------------
     def initial_sample_size(self, problem: ExpensiveProblem) -> int:
@@ -280,40 +292,58 @@ class QLogNEHVI(Algorithm):
         if not maximise:
             self.timing["acq"] = 0.0
             return None
+        candidates = self._maximise(ref, seed)
+        self.timing["acq"] = time.perf_counter() - start
+        return candidates
+
+    def _maximise(self, ref: np.ndarray, seed: int) -> np.ndarray:
+        """The q designs (unit cube, ``(q, D)``) maximising qLogNEHVI under the fitted GPs;
+        ``seed`` seeds the MC sampler, the baseline pruning and the restarts."""
         # The same exact posterior; CachedJointGP only skips recomputing the baseline rows
         model = CachedJointGP(self.gp) if self.cached_posterior else self.gp.model
-        m, k = self.problem.n_obj, self.problem.n_ieq_constr
         with torch.random.fork_rng(), warnings.catch_warnings():
             torch.manual_seed(seed)  # Boltzmann restart choice and baseline pruning
             warnings.simplefilter("ignore")
-            objective = IdentityMCMultiOutputObjective(outcomes=list(range(m)))
-            constraints = [_column(m + j) for j in range(k)] or None
-            baseline = torch.as_tensor(self.U, dtype=_DTYPE)
-            capped = self.max_baseline is not None and len(baseline) > self.max_baseline
-            prune_here = capped or self.prune_samples is not None
-            if prune_here:  # else inside the acquisition, BoTorch's defaults (the same call)
-                options = {} if self.prune_samples is None else {
-                    "num_samples": self.prune_samples}
-                if capped:  # the max_baseline designs most likely Pareto optimal
-                    options["max_frac"] = (self.max_baseline - 0.5) / len(baseline)  # ceil
-                baseline = prune_inferior_points_multi_objective(
-                    model, baseline, ref_point=torch.as_tensor(ref, dtype=_DTYPE),
-                    objective=objective, constraints=constraints, **options)
-            acq = qLogNoisyExpectedHypervolumeImprovement(
-                model=model, ref_point=ref.tolist(), X_baseline=baseline,
-                sampler=SobolQMCNormalSampler(torch.Size([self.mc_samples]), seed=seed),
-                objective=objective, constraints=constraints,
-                eta=self.eta, prune_baseline=not prune_here)
+            acq = self.acquisition(model, ref, seed, self.mc_samples)
             bounds = torch.stack([torch.zeros(self.problem.n_var, dtype=_DTYPE),
                                   torch.ones(self.problem.n_var, dtype=_DTYPE)])
             candidates, _ = optimize_acqf(
                 acq, bounds=bounds, q=self.q, num_restarts=self.num_restarts,
-                raw_samples=self.raw_samples, sequential=True,
-                options={"batch_limit": self.num_restarts, "maxiter": self.acq_maxiter,
-                         "init_batch_limit": self.init_batch_limit or self.num_restarts,
-                         "seed": seed})
-        self.timing["acq"] = time.perf_counter() - start
+                raw_samples=self.raw_samples, sequential=self.sequential,
+                options=self._acq_options(seed))
         return np.clip(candidates.detach().numpy(), 0.0, 1.0)
+
+    def acquisition(self, model, ref: np.ndarray, seed: int, mc_samples: int):
+        """qLogNEHVI over the observed designs (pruned), ``mc_samples`` seeded Sobol samples
+        of the joint posterior; the pruning draws from torch's global generator."""
+        m, k = self.problem.n_obj, self.problem.n_ieq_constr
+        objective = IdentityMCMultiOutputObjective(outcomes=list(range(m)))
+        constraints = [_column(m + j) for j in range(k)] or None
+        baseline = torch.as_tensor(self.U, dtype=_DTYPE)
+        capped = self.max_baseline is not None and len(baseline) > self.max_baseline
+        prune_here = capped or self.prune_samples is not None
+        if prune_here:  # else inside the acquisition, BoTorch's defaults (the same call)
+            options = {} if self.prune_samples is None else {
+                "num_samples": self.prune_samples}
+            if capped:  # the max_baseline designs most likely Pareto optimal
+                options["max_frac"] = (self.max_baseline - 0.5) / len(baseline)  # ceil
+            baseline = prune_inferior_points_multi_objective(
+                model, baseline, ref_point=torch.as_tensor(ref, dtype=_DTYPE),
+                objective=objective, constraints=constraints, **options)
+        return qLogNoisyExpectedHypervolumeImprovement(
+            model=model, ref_point=ref.tolist(), X_baseline=baseline,
+            sampler=SobolQMCNormalSampler(torch.Size([mc_samples]), seed=seed),
+            objective=objective, constraints=constraints,
+            eta=self.eta, prune_baseline=not prune_here)
+
+    def _acq_options(self, seed: int) -> dict:
+        """``optimize_acqf``'s options: restarts in one batch, L-BFGS-B's limits."""
+        options = {"batch_limit": self.num_restarts, "maxiter": self.acq_maxiter,
+                   "init_batch_limit": self.init_batch_limit or self.num_restarts,
+                   "seed": seed}
+        if self.acq_ftol is not None:  # BoTorch's batched L-BFGS-B takes ftol or factr
+            options.update(ftol=self.acq_ftol, factr=None)
+        return options
 
     def _fit_or_restore(self, Y: np.ndarray, replaying: bool) -> None:
         """Fit the GPs and checkpoint them, or, on a resume, take them from the checkpoint.
@@ -360,10 +390,11 @@ class QLogNEHVI(Algorithm):
 #: A run expected to take longer (CPU minutes) says so when it starts.
 LONG_RUN_MINUTES = 5.0
 #: CPU seconds per iteration at n designs (stiffness problem, D = 18; docs/speed.md):
-#: the default settings (experiments/bench_speed.py on a Table 3 run's archive, the mix of
-#: kept and re-fitted GPs of such a run) and the reference preset (Table 3's runs,
-#: docs/results.md "qLogNEHVI's cost").
-COST_DEFAULT = {150: 5.3, 400: 8.8, 650: 22.7}
+#: the default settings (the acquisition measured by experiments/bench_speed.py on a Table
+#: 3 run's archive plus the mix of kept, guard-capped and scheduled GP fits of such a run:
+#: 14.1-14.6 min per run, docs/speed.md "Round four") and the reference preset (Table 3's
+#: runs, docs/results.md "qLogNEHVI's cost").
+COST_DEFAULT = {150: 4.3, 400: 5.5, 650: 11.0}
 COST_REFERENCE = {50: 5.0, 200: 15.0, 300: 60.0, 500: 240.0, 697: 420.0}
 
 #: Where the reference point's nadir is taken (see :func:`reference_nadir`).

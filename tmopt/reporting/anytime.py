@@ -37,6 +37,7 @@ from tmopt.problems.heldout import heldout_metrics
 from tmopt.reporting.runs import COMPLETE, INCOMPLETE, RunRecord
 from tmopt.run.build import build_problem
 from tmopt.run.outputs import final_choice, indicator_values, reference_front
+from tmopt.run.progress import feasible_share
 
 log = logging.getLogger(__name__)
 
@@ -83,6 +84,7 @@ def prefix_values(problem, data: ArchiveData, k: int, front=None,
             out["heldout"] = heldout_cache[best]
     else:
         out.update(indicator_values(problem, head.F[pareto], front))
+        out["feasible_ratio"] = feasible_share(head)  # as metrics.json's, of the prefix
     return out
 
 

@@ -302,7 +302,9 @@ def _write_benchmarks(runs: list[RunRecord], out: Path, reference: str) -> str:
                 "IGD/IGD+ against the offline true front (lower is better); HV of the set "
                 "normalised by the true front's ideal and nadir, reference point 1.1 (higher "
                 "is better); a run without any feasible design has no IGD and HV 0. 'feasible "
-                "set found': runs with at least one feasible design. " + TEST_NOTE)
+                "set found': runs with at least one feasible design; 'feasible share': the "
+                "share of a run's evaluations that were feasible (mean over runs). "
+                + TEST_NOTE)
     figures.benchmark_boxes(rows, "igd", "IGD over seeds (lower is better)",
                             out / "benchmarks_igd.png")
     figures.benchmark_boxes(rows, "hv", "HV over seeds (higher is better)",

@@ -6,6 +6,9 @@ Mann-Whitney U test (``scipy.stats.mannwhitneyu``, ``method="auto"``: the exact
 distribution for small samples without ties, the normal approximation with tie
 correction otherwise). PlatEMO and the evolutionary-computation literature report the
 same test; with 5 seeds per side the smallest attainable p-value is 2/252 = 0.0079.
+Where two settings share their seeds (the same seed gives the same initial sample), the
+paired alternative is the Wilcoxon signed-rank test over the seeds both have
+(:func:`signed_rank`).
 """
 
 from __future__ import annotations
@@ -15,7 +18,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import mannwhitneyu
+from scipy.stats import mannwhitneyu, wilcoxon
 
 #: Significance level of the +/-/= marks.
 ALPHA = 0.05
@@ -74,6 +77,20 @@ def rank_sum(a: Sequence[float | None], b: Sequence[float | None]) -> float:
     if np.ptp(np.concatenate([x, y])) == 0:
         return 1.0  # all equal: no evidence of a difference (scipy would warn)
     return float(mannwhitneyu(x, y, alternative="two-sided", method="auto").pvalue)
+
+
+def signed_rank(a: dict[int, float | None], b: dict[int, float | None]) -> float:
+    """Two-sided Wilcoxon signed-rank p-value of ``a`` vs ``b`` paired by key (the seed):
+    the keys with a finite value on both sides (``scipy.stats.wilcoxon``, exact for small
+    samples without ties; NaN if fewer than 2 pairs, 1.0 if every pair is equal)."""
+    keys = sorted(k for k in a.keys() & b.keys()
+                  if all(v is not None and math.isfinite(v) for v in (a[k], b[k])))
+    if len(keys) < 2:
+        return math.nan
+    diff = np.array([float(a[k]) - float(b[k]) for k in keys])
+    if not diff.any():
+        return 1.0  # no pair differs: no evidence of a difference (scipy would fail)
+    return float(wilcoxon(diff, alternative="two-sided").pvalue)
 
 
 def mark(a: Sequence[float | None], b: Sequence[float | None], p: float,

@@ -147,12 +147,15 @@ ANYTIME_STIFFNESS_METRICS = (
         "chosen_feasible", "convergence_time_TM1", "convergence_accuracy_TM1", "M_TM1")))
 BENCHMARK_METRICS: tuple[Metric, ...] = (
     Metric("has_front", "feasible set found", _has_front),
+    Metric("feasible_ratio", "feasible share", _metric("feasible_ratio"),
+           lower_is_better=False, sci=False),  # of the run's evaluations
     Metric("igd", "IGD", _metric("igd"), tested=True),
     Metric("igd_plus", "IGD+", _metric("igd_plus")),
     Metric("hv", "HV", _metric("hv"), lower_is_better=False, tested=True),
     *COMMON_METRICS)
 ANYTIME_BENCHMARK_METRICS = tuple(m for m in BENCHMARK_METRICS
-                                  if m.key in ("has_front", "igd", "igd_plus", "hv"))
+                                  if m.key in ("has_front", "feasible_ratio", "igd",
+                                               "igd_plus", "hv"))
 
 
 # ---- summaries ------------------------------------------------------------------------

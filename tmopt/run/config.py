@@ -65,10 +65,13 @@ def _objectives_fixed(node: dict) -> bool:
 #: constructor default, they stay out of config_hash: the archives of earlier runs (same
 #: numbers) still resume and finished runs are still skipped. Keyed by (config group, its
 #: ``_target_``, argument); the value, if not None, says for which nodes the rule holds.
-#: qLogNEHVI's ``max_baseline`` came after runs were made; the suite problems' files named
-#: ``n_obj`` only for the problems scalable in objectives (for the others it has one value).
+#: qLogNEHVI's ``max_baseline``, ``sequential`` and ``acq_ftol`` came after runs were made;
+#: the suite problems' files named ``n_obj`` only for the problems scalable in objectives
+#: (for the others it has one value).
 HASH_NEUTRAL_ARGUMENTS: dict[tuple[str, str, str], Callable[[dict], bool] | None] = {
     ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "max_baseline"): None,
+    ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "sequential"): None,
+    ("algorithm", "tmopt.algorithms.qlognehvi.QLogNEHVI", "acq_ftol"): None,
     ("problem", "tmopt.problems.suites.PymooBenchmark", "difficulty"): None,
     ("problem", "tmopt.problems.suites.PymooBenchmark", "front_points"): None,
     ("problem", "tmopt.problems.suites.PymooBenchmark", "n_obj"): _objectives_fixed,
