@@ -321,6 +321,40 @@ def main_realistic(args) -> int:
 # ----------------------------------------------------------------------- calibration
 
 
+def calibration_cli(description: str, n_default: int, out_default: str, argv=None):
+    """The command line of a calibration script (``--n`` rounds, ``--jobs``, ``--out``):
+    the parsed arguments, or None after one line on stderr for a bad count."""
+    import argparse
+    import sys
+
+    ap = argparse.ArgumentParser(description=description)
+    ap.add_argument("--n", type=int, default=n_default, help="rounds of the set per simulator")
+    ap.add_argument("--jobs", type=int, default=1)
+    ap.add_argument("--out", default=out_default)
+    a = ap.parse_args(argv)
+    if a.n < 1 or a.jobs < 1:
+        print("--n and --jobs must be integers >= 1", file=sys.stderr)
+        return None
+    return a
+
+
+def streamed_rows(path: Path, todo: list[dict], run, jobs: int = 1,
+                  key=lambda r: (r["set"], r["backend"], r["seed"])) -> list[dict]:  # fmt: skip
+    """Run ``run`` on the jobs of ``todo`` not yet in the JSON-lines file ``path`` (a
+    stopped calibration resumes), appending each row as it comes (nothing lost); every
+    row of the file, in its order."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    done = {key(r) for r in map(json.loads, path.open())} if path.exists() else set()
+    todo = [j for j in todo if key(j) not in done]
+    with path.open("a") as fh:
+        it = map(run, todo) if jobs == 1 else mp.Pool(jobs).imap_unordered(run, todo)
+        for row in it:
+            fh.write(json.dumps(row, default=float) + "\n")
+            fh.flush()
+            print(json.dumps(row, default=float), flush=True)
+    return [json.loads(x) for x in path.open()]
+
+
 def calibration_job(job: tuple[str, int]) -> dict:
     """One clean realistic recording: the first greedy step's smallest Holm p, the
     locate step's smallest adjusted p, and what the tool concludes with its defaults."""

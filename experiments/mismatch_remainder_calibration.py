@@ -22,10 +22,7 @@ the floor (delta BIC 6, Kass & Raftery's "strong") were fixed before this run.
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
-import multiprocessing as mp
 import sys
 import time
 from pathlib import Path
@@ -91,27 +88,14 @@ def run(job: dict) -> dict:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--n", type=int, default=1, help="rounds of the set per simulator")
-    ap.add_argument("--jobs", type=int, default=1)
-    ap.add_argument("--out", default="experiments/out/mismatch_remainder_calibration")
-    a = ap.parse_args(argv)
-    if a.n < 1 or a.jobs < 1:
-        print("--n and --jobs must be integers >= 1", file=sys.stderr)
+    from mismatch_realistic import calibration_cli, streamed_rows
+
+    out = "experiments/out/mismatch_remainder_calibration"
+    a = calibration_cli(__doc__.splitlines()[0], 1, out, argv)
+    if a is None:
         return 2
-    out = Path(a.out)
-    out.mkdir(parents=True, exist_ok=True)
-    path = out / "rows.jsonl"
-    done = {(r["set"], r["backend"], r["seed"]) for r in map(json.loads, path.open())} \
-        if path.exists() else set()  # fmt: skip
-    todo = [j for j in jobs(a.n) if (j["set"], j["backend"], j["seed"]) not in done]
-    with path.open("a") as fh:
-        it = map(run, todo) if a.jobs == 1 else mp.Pool(a.jobs).imap_unordered(run, todo)
-        for row in it:
-            fh.write(json.dumps(row, default=float) + "\n")
-            fh.flush()
-            print(json.dumps(row, default=float), flush=True)
-    rows = [r for r in map(json.loads, path.open()) if "error" not in r]
+    rows = streamed_rows(Path(a.out) / "rows.jsonl", jobs(a.n), run, a.jobs)
+    rows = [r for r in rows if "error" not in r]
     for s in ("single", "pair"):
         for b in ("kernel", "foreign"):
             rs = [r for r in rows if r["set"] == s and r["backend"] == b]

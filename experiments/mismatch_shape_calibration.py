@@ -22,9 +22,6 @@ level fixed before this run (0.01), not tuned on it.
 
 from __future__ import annotations
 
-import argparse
-import json
-import multiprocessing as mp
 import sys
 import time
 from pathlib import Path
@@ -76,27 +73,13 @@ def run(job: dict) -> dict:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--n", type=int, default=20, help="recordings per set and simulator")
-    ap.add_argument("--jobs", type=int, default=1)
-    ap.add_argument("--out", default="experiments/out/mismatch_shape_calibration")
-    a = ap.parse_args(argv)
-    if a.n < 1 or a.jobs < 1:
-        print("--n and --jobs must be integers >= 1", file=sys.stderr)
+    from mismatch_realistic import calibration_cli, streamed_rows
+
+    a = calibration_cli(__doc__.splitlines()[0], 20, "experiments/out/mismatch_shape_calibration",
+                        argv)
+    if a is None:
         return 2
-    out = Path(a.out)
-    out.mkdir(parents=True, exist_ok=True)
-    path = out / "rows.jsonl"
-    done = {(r["set"], r["backend"], r["seed"]) for r in map(json.loads, path.open())} \
-        if path.exists() else set()  # fmt: skip
-    todo = [j for j in jobs(a.n) if (j["set"], j["backend"], j["seed"]) not in done]
-    with path.open("a") as fh:
-        it = map(run, todo) if a.jobs == 1 else mp.Pool(a.jobs).imap_unordered(run, todo)
-        for row in it:
-            fh.write(json.dumps(row, default=float) + "\n")
-            fh.flush()
-            print(json.dumps(row, default=float), flush=True)
-    rows = [json.loads(x) for x in path.open()]
+    rows = streamed_rows(Path(a.out) / "rows.jsonl", jobs(a.n), run, a.jobs)
     from tmopt.mismatch.calibration import SHAPE_ALPHA
 
     for s in ("null", "power"):
