@@ -321,6 +321,22 @@ def main_realistic(args) -> int:
 # ----------------------------------------------------------------------- calibration
 
 
+def diagnosed_case(case: dict):
+    """Generate a case's recording and diagnose it: ``(diagnosis, snrs, None)``, or
+    ``(None, None, "generation: ...")`` when the generator's loop diverged (reported, not
+    hidden)."""
+    from tmopt.mismatch.diagnose import diagnose
+    from tmopt.mismatch.fit import data_from_recording
+    from tmopt.mismatch.realistic import realistic_recording
+
+    try:
+        sc, effects, ooc, snrs = build(case)
+        rec, _ = realistic_recording(sc, effects, ooc, case["seed"], case["backend"])
+    except Exception as exc:
+        return None, None, f"generation: {exc}"
+    return diagnose(data_from_recording(rec)), snrs, None
+
+
 def calibration_cli(description: str, n_default: int, out_default: str, argv=None):
     """The command line of a calibration script (``--n`` rounds, ``--jobs``, ``--out``):
     the parsed arguments, or None after one line on stderr for a bad count."""

@@ -55,22 +55,17 @@ def jobs(n: int) -> list[dict]:
 
 
 def run(job: dict) -> dict:
-    from mismatch_realistic import build
+    from mismatch_realistic import diagnosed_case
 
-    from tmopt.mismatch.diagnose import _shares_axis, diagnose
-    from tmopt.mismatch.fit import data_from_recording
+    from tmopt.mismatch.diagnose import _shares_axis
     from tmopt.mismatch.generic import GENERIC
-    from tmopt.mismatch.realistic import realistic_recording
 
     t0 = time.process_time()
     row = {k: job[k] for k in ("set", "backend", "seed")}
     row["truth"] = [it["name"] for it in job["items"]]
-    try:
-        sc, effects, ooc, snrs = build(job)
-        rec, _ = realistic_recording(sc, effects, ooc, job["seed"], job["backend"])
-    except Exception as exc:  # a diverged loop is reported, not hidden
-        return {**row, "error": f"generation: {exc}"}
-    dg = diagnose(data_from_recording(rec))
+    dg, snrs, error = diagnosed_case(job)
+    if error:
+        return {**row, "error": error}
     row["snr"] = snrs
     row["refused"] = dg.refused
     weak = {w["key"]: w["kind"] for w in dg.weak}

@@ -47,21 +47,16 @@ def jobs(n: int) -> list[dict]:
 
 
 def run(job: dict) -> dict:
-    from mismatch_realistic import build
+    from mismatch_realistic import diagnosed_case
 
-    from tmopt.mismatch.diagnose import diagnose, shape_misfits
-    from tmopt.mismatch.fit import data_from_recording
-    from tmopt.mismatch.realistic import realistic_recording
+    from tmopt.mismatch.diagnose import shape_misfits
 
     t0 = time.process_time()
     row = {k: job[k] for k in ("set", "backend", "seed")}
     row["truth"] = job["items"][0]["name"]
-    try:
-        sc, effects, ooc, snrs = build(job)
-        rec, _ = realistic_recording(sc, effects, ooc, job["seed"], job["backend"])
-    except Exception as exc:  # a diverged loop is reported, not hidden
-        return {**row, "error": f"generation: {exc}"}
-    dg = diagnose(data_from_recording(rec))
+    dg, snrs, error = diagnosed_case(job)
+    if error:
+        return {**row, "error": error}
     row["snr"] = snrs[0]
     row["selected"] = [ev.candidate.key for ev, _ in dg.selected]
     checks = [] if dg.refused else shape_misfits(dg.data, dg.basis, dg.after, dg.selected, 1.0)
