@@ -133,8 +133,7 @@ def _unexplained_at(dg: Diagnosis, rep: dict) -> dict:
 
 def _not_identifiable(dg: Diagnosis) -> list[dict]:
     out = [dict(r) for r in dg.not_identifiable]
-    for group in events(dg.effects):  # one per event: a glitch's strongest piece
-        ev, alts = max((dg.effects[i] for i in group), key=lambda p: p[0].glr)
+    for _, (ev, alts) in _events(dg):  # one per event: a glitch's strongest piece
         others = _rivals(ev, alts, dg)
         if others:
             out.append({
@@ -238,6 +237,7 @@ def build_report(dg: Diagnosis) -> dict:
         return _refused_report(dg)
     before = summary(dg.data, dg.basis, dg.before)
     after = summary(dg.data, dg.basis, dg.after)
+    entries = _event_entries(dg)
     rep = {
         "schema_version": SCHEMA_VERSION,
         "source": dg.data.source,
@@ -249,8 +249,8 @@ def build_report(dg: Diagnosis) -> dict:
         "unexplained": dg.unexplained,
         "locations": dg.locations.as_dict(),
         "locations_unexplained": dg.locations_after.as_dict(),
-        "effects": [e for e in _event_entries(dg) if not e["rivals"]],
-        "ambiguous": [e for e in _event_entries(dg) if e["rivals"]],
+        "effects": [e for e in entries if not e["rivals"]],
+        "ambiguous": [e for e in entries if e["rivals"]],
         "features": [_feature_entry(dg, ev) for ev, _ in dg.features],
         "not_identifiable": _not_identifiable(dg),
         "fit": {"before": before, "after": after},
@@ -266,14 +266,22 @@ def build_report(dg: Diagnosis) -> dict:
     return rep
 
 
-def _event_entries(dg: Diagnosis) -> list[dict]:
-    """One entry per physical event (:func:`tmopt.mismatch.diagnose.events`): the pieces
-    of one glitch are reported once, as their strongest piece with ``pieces`` (their
-    number, onsets and kicks) -- its rivals decide whether the name is confident."""
+def _events(dg: Diagnosis) -> list[tuple[list, tuple]]:
+    """Per physical event (:func:`tmopt.mismatch.diagnose.events`): its selected pieces
+    and the strongest of them (the one reported)."""
     out = []
     for group in events(dg.effects):
         pieces = [dg.effects[i] for i in group]
-        ev, alts = max(pieces, key=lambda p: p[0].glr)
+        out.append((pieces, max(pieces, key=lambda p: p[0].glr)))
+    return out
+
+
+def _event_entries(dg: Diagnosis) -> list[dict]:
+    """One entry per physical event: the pieces of one glitch are reported once, as their
+    strongest piece with ``pieces`` (their number, onsets and kicks) -- its rivals decide
+    whether the name is confident."""
+    out = []
+    for pieces, (ev, alts) in _events(dg):
         entry = {**_effect_entry(dg, ev, alts), "rivals": _rivals(ev, alts, dg)}
         if len(pieces) > 1:
             kicks = [effect_parameters(dg.after, p.candidate).get("dv", (float("nan"), 0))[0]

@@ -238,12 +238,6 @@ def _kick(s: np.ndarray, beta: float, kind: str) -> np.ndarray:
     return -np.expm1(-u) if kind == "exp" else -np.expm1(-u) - u * np.exp(-u)
 
 
-def _glitch_primitive(s: np.ndarray, beta: float, shape: str) -> np.ndarray:
-    """Integral from 0 to s of the unit-area ``exp`` template (0 for s <= 0)."""
-    u = np.maximum(s, 0.0) / beta
-    return -np.expm1(-u)
-
-
 def _lisaglitch(shape: str, t0: float, beta: float, t_rise: float | None, overshoot: float):
     """The ``lisaglitch`` object of a unit-kick glitch (acceleration units per unit dv)."""
     import lisaglitch
@@ -263,7 +257,7 @@ def _velocity(shape: str, s_abs: np.ndarray, t0: float, beta: float, t_rise: flo
               overshoot: float) -> np.ndarray:  # fmt: skip
     """Kick delivered by time ``s_abs`` (absolute times) for a unit-kick glitch."""
     if shape == "exp":
-        return _glitch_primitive(s_abs - t0, beta, shape)
+        return _kick(s_abs - t0, beta, "exp")
     g = _lisaglitch(shape, t0, beta, t_rise, overshoot)
     if shape != "two_sided":
         return g.compute_signal(s_abs)
