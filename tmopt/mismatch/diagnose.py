@@ -150,8 +150,11 @@ class Diagnosis:
 
     @property
     def unexplained(self) -> bool:
+        """Something is left unexplained: located excess, an unnamed feature, a shape
+        misfit, or a name too weak (or a stronger effect's remainder) to be given
+        (:func:`weak_names`) -- its channel is then reported in ``unexplained_at``."""
         return self.refused is None and (self.locations_after.any or bool(self.features)
-                                         or bool(self.misfits))
+                                         or bool(self.misfits) or bool(self.weak))
 
     @property
     def mismatch_detected(self) -> bool | None:
@@ -726,9 +729,11 @@ def weak_names(selected: list, eps: float = cal.MODEL_PRECISION,
       1/20 of its signal keeps both names); a repeatable one (a glitch) has its own
       pieces grouped instead (:func:`events`).
 
-    Each: ``{"key", "channel", "kind", "of"}`` (``of``: the stronger effect's name)."""
+    Only the reported piece of each event (:func:`event_pieces`) is judged: the others
+    are parts of its shape, not names.  Each: ``{"key", "channel", "kind", "of"}``
+    (``of``: the stronger effect's name)."""
     out = []
-    for ev, _ in selected:
+    for _, (ev, _) in event_pieces(selected):
         cand = ev.candidate
         if cand.effect == generic.GENERIC:
             continue
@@ -763,6 +768,16 @@ def events(selected: list) -> list[list[int]]:
         else:
             groups.append([i])
     return groups
+
+
+def event_pieces(selected: list) -> list[tuple[list, tuple]]:
+    """Per physical event (:func:`events`): its selected pieces and the strongest of them
+    (largest GLR: the one reported and judged)."""
+    out = []
+    for group in events(selected):
+        pieces = [selected[i] for i in group]
+        out.append((pieces, max(pieces, key=lambda p: p[0].glr)))
+    return out
 
 
 def effect_parameters(state: State, cand: Candidate) -> dict[str, tuple[float, float]]:

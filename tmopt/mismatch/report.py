@@ -16,7 +16,7 @@ from tmopt.mismatch.diagnose import (
     Diagnosis,
     State,
     effect_parameters,
-    events,
+    event_pieces,
     stiffness,
     summary,
 )
@@ -262,18 +262,17 @@ def build_report(dg: Diagnosis) -> dict:
     for e in rep["effects"]:
         del e["rivals"]
     rep["unexplained_at"] = _unexplained_at(dg, rep)
+    # the flag says whether anything is left unexplained, wherever ``unexplained_at``
+    # puts it (an ambiguous name with an unnamed rival included): one definition
+    rep["unexplained"] = dg.unexplained or any(bool(v) for v in rep["unexplained_at"].values())
     rep["conclusion"] = conclusion(rep)
     return rep
 
 
 def _events(dg: Diagnosis) -> list[tuple[list, tuple]]:
-    """Per physical event (:func:`tmopt.mismatch.diagnose.events`): its selected pieces
-    and the strongest of them (the one reported)."""
-    out = []
-    for group in events(dg.effects):
-        pieces = [dg.effects[i] for i in group]
-        out.append((pieces, max(pieces, key=lambda p: p[0].glr)))
-    return out
+    """Per physical event of the named effects: its pieces and the one reported
+    (:func:`tmopt.mismatch.diagnose.event_pieces`)."""
+    return event_pieces(dg.effects)
 
 
 def _event_entries(dg: Diagnosis) -> list[dict]:
