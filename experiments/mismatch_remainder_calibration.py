@@ -57,7 +57,7 @@ def jobs(n: int) -> list[dict]:
 def run(job: dict) -> dict:
     from mismatch_realistic import diagnosed_case
 
-    from tmopt.mismatch.diagnose import _shares_axis
+    from tmopt.mismatch.diagnose import shares_axis
     from tmopt.mismatch.generic import GENERIC
 
     t0 = time.process_time()
@@ -73,7 +73,7 @@ def run(job: dict) -> dict:
     row["selected"] = []
     for ev, c in sel:
         strong = [o.glr for o, oc in sel if o is not ev and o.glr > ev.glr
-                  and _shares_axis(oc.channel, c.channel)]  # fmt: skip
+                  and shares_axis(oc.channel, c.channel)]  # fmt: skip
         row["selected"].append({
             "name": c.effect, "channel": c.channel, "dbic": ev.dbic, "glr": ev.glr,
             "ratio": math.sqrt(ev.glr / max(strong)) if strong else 1.0,

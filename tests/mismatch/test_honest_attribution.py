@@ -12,6 +12,7 @@ own noise, as in the benchmark.
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from tmopt.mismatch.diagnose import diagnose
@@ -149,3 +150,27 @@ def test_a_loud_glitch_on_the_independent_simulator_is_one_named_event():
         rep["conclusion"]  # fmt: skip
     assert not rep["ambiguous"], rep["conclusion"]
     assert abs(rep["effects"][0]["parameters"]["dv"] / inj.magnitude - 1) < 0.01
+
+
+def test_a_clipped_accelerometer_is_unexplained_at_its_axis_not_refused():
+    """Out of catalogue: the x2 accelerometer clipped at 80 % of its range.  The best
+    catalogue fit is a "readout scale" of ~1e4 -- beyond physics; before, the whole
+    recording was refused for it.  Now that explanation is taken out, the rest selected
+    again, and x2 is reported unexplained with no confident name there."""
+    import copy
+
+    from tmopt.mismatch.fit import data_from_result
+    from tmopt.mismatch.report import build_report
+    from tmopt.physics import SimulationConfig, simulate
+
+    from .test_diagnose import REF1, REF2
+
+    d = copy.deepcopy(data_from_result(simulate(REF1, REF2, SimulationConfig(duration=600.0),
+                                                seed=31)))  # fmt: skip
+    lim = 0.8 * np.nanmax(np.abs(d.acc[1]))
+    d.acc[1] = np.clip(d.acc[1], -lim, lim)
+    rep = build_report(diagnose(d))
+    assert rep["status"] == "diagnosed", rep.get("reason")
+    assert rep["unexplained"] and "x2" in rep["unexplained_at"]["channels"]
+    assert not [e for e in rep["effects"] if "x2" in e["channel"] or e["channel"] == "all axes"]
+    assert any(n.startswith("not named: ") and "readout_scale" in n for n in rep["notes"])

@@ -137,6 +137,9 @@ class Diagnosis:
     #: Selected catalogue effects whose evidence is weak or a stronger effect's remainder
     #: (:func:`weak_names`).
     weak: list[dict] = field(default_factory=list)
+    #: Explanations beyond physics taken out of the selection (``{"key", "channel",
+    #: "group", "reason"}``): their channels are unexplained.
+    beyond: list[dict] = field(default_factory=list)
 
     @property
     def effects(self) -> list[tuple[Evaluation, list[Evaluation]]]:
@@ -154,7 +157,8 @@ class Diagnosis:
         misfit, or a name too weak (or a stronger effect's remainder) to be given
         (:func:`weak_names`) -- its channel is then reported in ``unexplained_at``."""
         return self.refused is None and (self.locations_after.any or bool(self.features)
-                                         or bool(self.misfits) or bool(self.weak))
+                                         or bool(self.misfits) or bool(self.weak)
+                                         or bool(self.beyond))
 
     @property
     def mismatch_detected(self) -> bool | None:
@@ -708,7 +712,7 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
     return out
 
 
-def _shares_axis(a: str, b: str) -> bool:
+def shares_axis(a: str, b: str) -> bool:
     """Do two channel labels name a common axis ("all axes" and "alpha" name every one)?"""
     aa, bb = set(re.findall(r"[xy][12]", a)), set(re.findall(r"[xy][12]", b))
     return not aa or not bb or bool(aa & bb)
@@ -745,7 +749,7 @@ def weak_names(selected: list, eps: float = cal.MODEL_PRECISION,
             model = EFFECTS.get(oc.effect)
             searched = model is not None and model.profiled and not model.repeatable
             if other is not ev and searched and eps**2 * other.glr > ev.glr and \
-                    _shares_axis(oc.channel, cand.channel):  # fmt: skip
+                    shares_axis(oc.channel, cand.channel):  # fmt: skip
                 out.append({"key": cand.key, "channel": cand.channel, "kind": "remainder",
                             "of": f"{oc.effect}[{oc.channel}]"})  # fmt: skip
                 break
@@ -790,14 +794,16 @@ def effect_parameters(state: State, cand: Candidate) -> dict[str, tuple[float, f
     return cand.physical(fit.coef[idx], fit.cov[np.ix_(idx, idx)])
 
 
-def _implausible(state: State, selected: list) -> str | None:
-    """:func:`tmopt.mismatch.plausibility.implausible_effects` on the selected effects."""
-    entries = []
+def _implausible(state: State, selected: list) -> tuple[Candidate, str] | None:
+    """The first selected effect beyond physics and why
+    (:func:`tmopt.mismatch.plausibility.implausible_effects`), or None."""
     for ev, _ in selected:
         params = {k: v for k, (v, _) in effect_parameters(state, ev.candidate).items()}
-        entries.append({"name": ev.candidate.effect, "channel": ev.candidate.channel,
-                        "parameters": params})  # fmt: skip
-    return implausible_effects(entries)
+        reason = implausible_effects([{"name": ev.candidate.effect, "parameters": params,
+                                       "channel": ev.candidate.channel}])  # fmt: skip
+        if reason is not None:
+            return ev.candidate, reason
+    return None
 
 
 def _refused(data: Data, settings: Settings, verdict: Verdict, reason: str) -> Diagnosis:
@@ -838,9 +844,45 @@ def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
     if verdict.refused:
         return _refused(data, settings, verdict, verdict.reason)
     data, basis = prepare(data)
-    state = before = fit_state(data, basis, [], [], False, settings)
+    before = fit_state(data, basis, [], [], False, settings)
+    # an explanation beyond physics (a parameter past the effect's range) is no name: it
+    # is taken out and the selection rerun; its channel is reported unexplained (a
+    # clipped accelerometer fitted as a "readout scale" of 1e6).  Past MAX_IMPLAUSIBLE
+    # of them the recording is refused (a unit error or a swapped channel, issue 20.4).
+    beyond: list[dict] = []
+    while True:
+        selected, steps, state, n_tests = _select(data, basis, before, settings,
+                                                  {b["key"] for b in beyond})  # fmt: skip
+        bad = _implausible(state, selected)
+        if bad is None:
+            break
+        if len(beyond) >= MAX_IMPLAUSIBLE:
+            return _refused(data, settings, verdict, bad[1])
+        beyond.append({"key": bad[0].key, "channel": bad[0].channel,
+                       "group": bad[0].group, "reason": bad[1]})  # fmt: skip
+        data.notes.append(bad[1].replace("cannot diagnose: ", "not named: "))
+    return Diagnosis(
+        data=data, basis=basis, before=before, after=state, selected=selected,
+        locations=_locate_state(data, basis, before, settings.locate_alpha),
+        locations_after=_locate_state(data, basis, state, settings.locate_alpha),
+        not_identifiable=identifiability(data, basis, before, settings, n_tests),
+        settings=settings, steps=steps, verdict=verdict,
+        misfits=shape_misfits(data, basis, state, selected),
+        weak=weak_names(selected), beyond=beyond,
+    )  # fmt: skip
+
+
+#: Explanations beyond physics taken out before a recording is refused (:func:`diagnose`).
+MAX_IMPLAUSIBLE = 2
+
+
+def _select(data: Data, basis: np.ndarray, before: State, settings: Settings,
+            banned: set[str]) -> tuple[list, list, State, int]:
+    """The stepwise selection and backward pass from the nominal fit ``before``, never
+    choosing a candidate in ``banned``: ``(selected, steps, state, n_tests)``."""
+    state = before
     selected, steps = [], []
-    exclude: set[str] = set()
+    exclude: set[str] = set(banned)
     # glitch pieces of one event count once; at most twice max_effects selections in all
     while len(events(selected)) < settings.max_effects and \
             len(selected) < 2 * settings.max_effects:  # fmt: skip
@@ -865,18 +907,7 @@ def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
         if len(kept) < len(selected):
             selected = kept
             state = _rebuild(data, basis, [ev for ev, _ in kept], settings)
-    reason = _implausible(state, selected)
-    if reason is not None:
-        return _refused(data, settings, verdict, reason)
-    return Diagnosis(
-        data=data, basis=basis, before=before, after=state, selected=selected,
-        locations=_locate_state(data, basis, before, settings.locate_alpha),
-        locations_after=_locate_state(data, basis, state, settings.locate_alpha),
-        not_identifiable=identifiability(data, basis, before, settings, n_tests),
-        settings=settings, steps=steps, verdict=verdict,
-        misfits=shape_misfits(data, basis, state, selected),
-        weak=weak_names(selected),
-    )  # fmt: skip
+    return selected, steps, state, n_tests
 
 
 # ------------------------------------------------------------------------ summaries

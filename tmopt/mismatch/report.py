@@ -100,6 +100,13 @@ def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
             out.append({"name": f"remainder of {w['of']} (below its model precision, "
                                 f"{cal.MODEL_PRECISION:.0%} of its signal)",
                         "channel": w["channel"], "delta_bic": None})  # fmt: skip
+    # an explanation beyond physics was taken out: the instrument does something the
+    # catalogue cannot hold, and through the loop (every force follows the readouts) on
+    # any axis, so no name is more than part of the story (a clipped accelerometer was
+    # fitted as a readout scale of 1e5, then as a DAC quantisation; a stuck x2 sensor,
+    # once its stiffness drift of 10 s^-2 was out, as a cross-coupling y1<-x1)
+    out += [{"name": f"explanation beyond physics taken out ({b['key']})",
+             "channel": b["channel"], "delta_bic": None} for b in dg.beyond]  # fmt: skip
     mine = _axes(ev.candidate.channel)
     kin = ev.candidate.group == "kinematic"  # its structure is in the readout residual
     left = [c for c in dg.locations_after.channels
@@ -128,6 +135,13 @@ def _unexplained_at(dg: Diagnosis, rep: dict) -> dict:
         if any(r["name"] not in _NEEDS for r in a["rivals"]) and \
                 a["channel"] not in loc["channels"]:  # fmt: skip
             loc["channels"].append(a["channel"])
+    # an explanation beyond physics, taken out: its residual channel (the axis's force
+    # equation, or the axis's readout for a kinematic one) is unexplained
+    for b in dg.beyond:
+        suffix = " readout" if b["group"] == "kinematic" else ""
+        for a in sorted(_axes(b["channel"])) or [b["channel"]]:
+            if a + suffix not in loc["channels"]:
+                loc["channels"].append(a + suffix)
     return loc
 
 
