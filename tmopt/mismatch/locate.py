@@ -239,6 +239,7 @@ def locate(
     noise=None,
     interior: np.ndarray | None = None,
     layout=None,
+    local: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> Locations:
     """Frequency bands, time windows and channels of the excess in one residual group.
 
@@ -247,10 +248,14 @@ def locate(
     excess in the physical f_B-free plane (``dirs`` = the null basis's rows, (2, 4)); with
     ``dirs`` alone, in the spatially whitened plane (white noise); with ``names``
     (kinematic group, one channel per axis) from the channels that carry the excess.
+    ``local``: (whitened series, mask) of uniform variance along the record
+    (:meth:`~tmopt.mismatch.noise_model.NoiseModel.whiten_local`) for the time test, when
+    ``white``'s variance follows a taper (Hann: blind near every segment end).
     """
     white = rescaled(white, interior)
+    timed = white if local is None else rescaled(local[0], local[1])
     bands, pf = segment_bands(white, fs, alpha / 2, layout)
-    wins, pt = time_windows(white, time, fs, alpha / 2)
+    wins, pt = time_windows(timed, time, fs, alpha / 2)
     loc = Locations(bands, wins, [], min(1.0, 2 * min(pf, pt)))
     if not loc.any:
         return loc
@@ -265,7 +270,7 @@ def locate(
     elif names is not None:
         for i, nm in enumerate(names):
             b, p1 = segment_bands(white[i : i + 1], fs, alpha / 2, layout)
-            w, p2 = time_windows(white[i : i + 1], time, fs, alpha / 2)
+            w, p2 = time_windows(timed[i : i + 1], time, fs, alpha / 2)
             if b or w:
                 loc.channels.append(nm)
     return loc
