@@ -63,6 +63,9 @@ TARGET_M, TARGET_OBJ2, MULTISINE_M = 4.5, 1.5, 5.99
 #: Knots of family c [s]: dense while the information builds up, coarser after.
 KNOTS = np.concatenate([np.arange(10.0, 301.0, 10.0), np.arange(330.0, 1200.0, 30.0)])
 PENALTY = 100.0
+#: Instants [s] at which most_information looks for the largest spread of a motion.
+GRID = np.array([60.0, 80, 100, 113, 126, 138, 150, 163, 175, 188, 200, 225, 250, 275, 300, 350,
+                 400, 500, 600, 800, 1000, 1199.9])
 CHUNK = 16  # noise-free runs keep every channel (~2 MB each)
 
 
@@ -70,8 +73,9 @@ def parse(argv=None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--budget", type=int, default=200)
     ap.add_argument("--crossings", default="1,2,3,4,5,6")
-    ap.add_argument("--knot-budget", type=int, default=3000)
+    ap.add_argument("--knot-budget", type=int, default=2000)
     ap.add_argument("--seeds", type=int, default=32)
+    ap.add_argument("--envelope-budget", type=int, default=1500)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", default=None)
     args = ap.parse_args(argv)
@@ -90,6 +94,8 @@ def parse(argv=None) -> argparse.Namespace:
         bad(f"--crossings must be integers in [1, 6] separated by commas; got {args.crossings}")
     if not 0 <= args.knot_budget <= 1_000_000:
         bad(f"--knot-budget must be an integer in [0, 1000000]; got {args.knot_budget}")
+    if not 0 <= args.envelope_budget <= 100_000:
+        bad(f"--envelope-budget must be an integer in [0, 100000]; got {args.envelope_budget}")
     if not 2 <= args.seeds <= 10_000:
         bad(f"--seeds must be an integer in [2, 10000]; got {args.seeds}")
     if not 0 <= args.seed < 2**31:
@@ -182,29 +188,105 @@ def family_b(st: Study, n: int, budget: int, seed: int):
     return {f"b{n}": (build(p), p)}
 
 
-def family_c(st: Study, start: np.ndarray, budget: int, seed: int, keep: int = 16):
-    """Knot motions: CMA-ES on the tracked prediction from ``start``'s acceleration, the
-    ``keep`` best of the search re-scored with the simulator (prediction and Eq. 20)."""
-    cap = 0.93  # of the force limit: room for the stiffness, the tracking and the noise
+def family_c(st: Study, start: np.ndarray, budget: int, seed: int):
+    """Knot motions (peak ``cap`` of the force limit), CMA-ES on the simulator's
+    prediction from ``start``'s acceleration sampled at the knots."""
+    cap = 0.97
     t = np.arange(st.floor.n_steps) / st.floor.sample_rate
     acc = np.gradient(np.gradient(start, t), t) / st.floor.force_limit
     z0 = np.arctanh(np.clip(np.interp(KNOTS, t, acc) / cap, -0.99, 0.99))
-    kept: list[tuple[float, np.ndarray]] = []
 
     def build(z):
         return knot_motion(st.floor, cap * np.tanh(z), KNOTS)
+    z = cmaes([-3.0] * len(KNOTS), [3.0] * len(KNOTS), z0, simulated(st, build), budget, seed,
+              sigma=0.05)
+    return {"c": (build(z), z)}
 
-    def evaluate(P):  # tracked prediction; keeps the best parameters seen
-        s = st.tracked(np.stack([build(p) for p in P]))
-        kept.extend(zip(s.tolist(), np.array(P, copy=True)))
-        kept.sort(key=lambda r: r[0])
-        del kept[keep:]
-        return s
-    cmaes([-3.0] * len(KNOTS), [3.0] * len(KNOTS), z0, evaluate, budget, seed, sigma=0.1)
-    X = np.stack([build(p) for _, p in kept])
-    d = st.predicted(X)
-    i = int(np.argmin(d["score"]))
-    return {"c": (X[i], np.array([cap]))}
+
+def most_information(st: Study, grid: np.ndarray, budget: int, seed: int) -> np.ndarray:
+    """Largest ``sum_{m <= n} (x_m - mean x)^2`` [m^2] found at each time of ``grid`` [s]
+    over motions from rest with ``|x''| <= accel_max`` and ``|x| <= x_max``, each instant
+    with its own motion: CMA-ES (``budget`` evaluations per try) over knot accelerations (24
+    knots on [0, t], started from the constant acceleration and from the previous instant's
+    best) and over 1-4 bang-bang transitions between free levels with free waits.  A
+    numerical maximum: it estimates (from below) the most information any motion has at
+    that instant; :meth:`StiffnessFloor.intercept_bound` is the proven bound above it."""
+    fl = st.floor
+    top = fl.accel_max / fl.force_limit
+    out, z_prev = [], None
+    for k_t, t_end in enumerate(grid):
+        n = int(round(t_end * fl.sample_rate)) + 1
+        knots = np.linspace(t_end / 24, t_end, 24)
+
+        def knot_pop(P, knots=knots, n=n):
+            return spread(np.stack([knot_motion(fl, top * np.tanh(z), knots)[:n] for z in P]),
+                          fl.x_max)
+        best = -np.inf
+        for z0 in [np.full(24, 3.0)] + ([z_prev] if z_prev is not None else []):
+            z = cmaes([-3.0] * 24, [3.0] * 24, z0, knot_pop, budget, seed + k_t, sigma=0.2)
+            v = -knot_pop(z[None])[0]
+            if v > best:
+                best, z_best = v, z
+        z_prev = z_best
+        for k in (1, 2, 3, 4):
+            def bang_pop(P, k=k, n=n):
+                return spread(np.stack([cycloid_transitions(
+                    fl, fl.x_max * np.tanh(p[:k]), 100 * p[k:], top, "bang")[:n] for p in P]),
+                    fl.x_max)
+            x0 = np.concatenate([np.where(np.arange(k) % 2, -1.5, 1.5), np.zeros(k)])
+            p = cmaes([-3.0] * k + [0.0] * k, [3.0] * k + [6.0] * k, x0, bang_pop, budget,
+                      seed + 10 * k_t + k)
+            best = max(best, -bang_pop(p[None])[0])
+        out.append(best * fl.x_max**2)
+        print(f"  most information at {t_end:6.1f} s: sum (x - mean)^2 = {out[-1]:.4g} m^2 "
+              f"({out[-1] / np.sum(fl.envelope()[:n] ** 2):.3f} of the envelope's)", flush=True)
+    return np.array(out)
+
+
+def spread(X: np.ndarray, x_max: float) -> np.ndarray:
+    """``-sum (x - mean x)^2 / x_max^2`` of each row, penalised beyond ``x_max``."""
+    over = np.maximum(np.abs(X).max(axis=1) / x_max - 1, 0.0)
+    return (-X.var(axis=1) / x_max**2 + PENALTY * over) * X.shape[1]
+
+
+def m_estimates(st: Study, grid: np.ndarray, found: np.ndarray | None) -> dict[str, float]:
+    """Least-M numbers: the floor's (envelope, free t0); the same with the proven
+    intercept bound; Eq. 18's step law on each; and, with ``found`` (most_information on
+    ``grid``), both on that information (each sample taking the next grid time's value, a
+    step function above the numerical maxima), capped by the proven bound."""
+    fl = st.floor
+    envelope = fl.motion_information(fl.envelope(), intercept=False)[0]
+    bound = fl.intercept_bound()
+    out = {"floor_free_t0": fl.m_floor()[0],
+           "floor_step_law": float(fl.expected_scores(envelope[None])["M"][0]),
+           "intercept_free_t0": _free_t0(fl, bound),
+           "intercept_step_law": float(fl.expected_scores(bound[None])["M"][0])}
+    if found is not None:
+        t = np.arange(fl.n_steps) / fl.sample_rate
+        scale = (fl.coefficient / fl.sigma_e) ** 2
+        most = np.maximum.accumulate(found)
+        # free t0: each sample takes the next grid time's value (above the maxima found)
+        nxt = np.minimum(np.searchsorted(grid, t, side="left"), len(grid) - 1)
+        upper = np.minimum(fl.prior_info + scale * most[nxt], bound)
+        # step law: a smooth trajectory through the maxima (power law between grid times;
+        # a step function would make a large RLS step at every jump)
+        smooth = np.exp(np.interp(np.log(np.maximum(t, grid[0])), np.log(grid), np.log(most)))
+        smooth *= np.minimum(t / grid[0], 1.0) ** 5  # ~ t^5 before the first grid time
+        info = np.minimum(fl.prior_info + scale * smooth, bound)
+        step = fl.expected_scores(info[None])
+        out.update({"found_free_t0": _free_t0(fl, upper), "found_step_law": float(step["M"][0]),
+                    "found_step_law_t0": float(step["convergence_time"][0]),
+                    "found_step_law_obj2": float(step["convergence_accuracy"][0])})
+    return out
+
+
+def _free_t0(fl, info: np.ndarray) -> float:
+    """``min_t0 w1 t0 + w2 sqrt(2/pi) sqrt(mean_{n >= n0} 1/info)`` (m_floor's rule)."""
+    var = 1.0 / info
+    n = np.arange(fl.n_steps)
+    tail = np.cumsum(var[::-1])[::-1] / (fl.n_steps - n)
+    w1, w2 = po.M_WEIGHTS
+    return float(np.min(w1 * n / fl.sample_rate + w2 * np.sqrt(2 / np.pi) * np.sqrt(tail)))
 
 
 def heldout(st: Study, X: np.ndarray, seeds: np.ndarray) -> list[dict]:
@@ -275,17 +357,28 @@ def main(argv=None) -> None:
               f"{r['obj2_heldout']:9.3g} {r['obj2_over_floor']:10.2f} {r['eq20_share']:10.2f}")
     ok = [r for r in rows if r["eq20_share"] == 1.0] or rows
     best = min(ok, key=lambda r: r["M_heldout"])
-    step = fl.step_law_m()
-    print(f"\nleast M estimates: floor (free convergence time) {fl.m_floor()[0]:.2f}; Eq. 18's "
-          f"step law on the floor's information {step['M']:.2f} (t0 {step['convergence_time']:.0f}"
-          f" s, obj2 {step['convergence_accuracy']:.3g})")
+    found = None
+    if args.envelope_budget:
+        print("\nmost information at each instant (numerical maxima):", flush=True)
+        found = most_information(st, GRID, args.envelope_budget, args.seed)
+    est = m_estimates(st, GRID, found)
+    write_rows(out / "m_estimates.csv", [est])
+    print("\nleast M: proven floors (free convergence time) -- envelope "
+          f"{est['floor_free_t0']:.2f}, with the intercept {est['intercept_free_t0']:.2f}; "
+          f"estimates with Eq. 18's step law -- envelope {est['floor_step_law']:.2f}, intercept "
+          f"bound {est['intercept_step_law']:.2f}")
+    if found is not None:
+        print(f"on the most information found at each instant: free t0 "
+              f"{est['found_free_t0']:.2f}, step law {est['found_step_law']:.2f} (t0 "
+              f"{est['found_step_law_t0']:.0f} s, obj2 {est['found_step_law_obj2']:.3g})")
     print(f"best admissible motion: {best['family']}, held-out M {best['M_heldout']:.2f} ± "
           f"{best['M_se']:.2f} (s.e., {len(seeds)} seeds) = {best['M_heldout'] / TARGET_M:.2f}x "
           f"the target {TARGET_M}, {best['M_heldout'] / MULTISINE_M:.2f}x the best multi-sine "
           f"{MULTISINE_M}; obj2 {best['obj2_over_floor']:.2f}x its floor (target "
           f"{TARGET_OBJ2}); {time.perf_counter() - wall:.0f} s, {st.evaluations} simulator "
           f"predictions")
-    print(f"written: {out / 'm_reachable.csv'}, {out / 'motions.npz'}")
+    print(f"written: {out / 'm_reachable.csv'}, {out / 'm_estimates.csv'}, "
+          f"{out / 'motions.npz'}")
 
 
 if __name__ == "__main__":

@@ -128,6 +128,41 @@ class StiffnessFloor:
         c = self.prior_r_info + np.arange(1, x.shape[1] + 1) / self.sigma_e**2
         return a - b**2 / c
 
+    def intercept_bound(self) -> np.ndarray:
+        """Most information on ``k_jj`` [s^4] any admissible motion gives after each sample
+        with the intercept R fitted (as the RLS does), (N,): a bound tighter than the
+        envelope's while the motion is young.
+
+        With R fitted the information is ``K^2 sum_m (x_m - mean x)^2 / sigma_e^2`` (plus
+        the priors), and ``sum_{m <= n} (x_m - mean x)^2 = sum_{i, j <= n} (x_i - x_j)^2 /
+        (2 n)``.  From rest with ``|x''| <= a``, ``|x'(r)| <= min(a r, v_max)`` (``v_max =
+        2 sqrt(a x_max)``: faster, it could not stop within the wall), so ``|x_i - x_j| <=
+        min(|P(t_i) - P(t_j)|, 2 x_max)``, ``P(t) = int_0^t min(a r, v_max) dr``.  Never above
+        the envelope's (``sum (x - mean)^2 <= sum x^2``).  Until ``x_max`` can be reached the
+        constant acceleration ``x = a t^2 / 2`` attains it: 4/9 of the envelope (1/45 against
+        1/20 of ``a^2 t^4``).  R's prior adds at most ``1 / (n P0)`` of the envelope's.
+        """
+        a, fs, n_all = self.accel_max, self.sample_rate, self.n_steps
+        t = np.arange(n_all) / fs
+        v_max = 2 * math.sqrt(a * self.x_max)
+        t_v = v_max / a
+        p = np.where(t <= t_v, 0.5 * a * t**2, 0.5 * a * t_v**2 + v_max * (t - t_v))
+        # row n of sum_ij D_ij^2 over j < n: p increases, so D = 2 x_max for j < j0(n)
+        # and p_n - p_j after: prefix sums of p and p^2 make each row O(1)
+        idx = np.arange(n_all)
+        j0 = np.minimum(np.searchsorted(p, p - 2 * self.x_max, side="right"), idx)
+        c1 = np.concatenate([[0.0], np.cumsum(p)])
+        c2 = np.concatenate([[0.0], np.cumsum(p**2)])
+        near = idx - j0
+        row = (j0 * 4 * self.x_max**2 + near * p**2 - 2 * p * (c1[idx] - c1[j0])
+               + (c2[idx] - c2[j0]))  # fmt: skip
+        pairs = np.cumsum(2.0 * np.maximum(row, 0.0))
+        count = np.arange(1, n_all + 1)
+        envelope = self.motion_information(self.envelope(), intercept=False)[0]
+        scale = (self.coefficient / self.sigma_e) ** 2
+        prior_r = envelope * self.prior_r_info * self.sigma_e**2 / count
+        return np.minimum(self.prior_info + scale * pairs / (2 * count) + prior_r, envelope)
+
     def expected_scores(self, info, eps: float = EPSILON,
                         weights: tuple[float, float] = M_WEIGHTS) -> dict:  # fmt: skip
         """Eqs. 18, 19 and 29 expected for information trajectories ``info`` (B, N) [s^4]
@@ -202,8 +237,8 @@ def stiffness_floor(config, idx: int, constraints: str) -> StiffnessFloor:
                           prior_r_info=1.0 / (sigma_e**2 * config.rls_p0))  # fmt: skip
 
 
-def cycloid_transitions(floor: StiffnessFloor, levels, waits, margin: float = 0.8
-                        ) -> np.ndarray:  # fmt: skip
+def cycloid_transitions(floor: StiffnessFloor, levels, waits, margin: float = 0.8,
+                        shape: str = "cycloid") -> np.ndarray:  # fmt: skip
     """A reference (N,) [m] that moves from rest at 0 through ``levels`` [m], one cycloid
     transition each, holding in between.
 
@@ -214,7 +249,12 @@ def cycloid_transitions(floor: StiffnessFloor, levels, waits, margin: float = 0.
     (2 pi))``, ``s = (t - start) / tau``: zero velocity and acceleration at both ends, peak
     acceleration ``2 pi |h| / tau^2 = margin`` times the force limit (the rest is room for
     the controller's tracking). Levels are clipped to ``x_max`` less 1e-4 of it (room for
-    the tracking error, ~10 nm); a transition the run ends in is cut there.  Admissible
+    the tracking error, ~10 nm); a transition the run ends in is cut there.
+    ``shape="bang"``: rest-to-rest at constant ``+-margin`` x the force limit instead
+    (``h phi(s)``, ``phi = 2 s^2`` then ``1 - 2 (1 - s)^2``, ``tau = 2 sqrt(|h| / a)``: the
+    fastest transition, too abrupt for the controller; for bounds and estimates).
+    ``margin`` may reach ``accel_max / force_limit`` (what the stiffness and the bias
+    add).  Admissible
     by construction without overlaps, up to the controller's tracking (Eq. 20 on the
     realised run is the caller's check).  ``levels`` and ``waits`` (same length) are 1-D.
     """
@@ -223,8 +263,11 @@ def cycloid_transitions(floor: StiffnessFloor, levels, waits, margin: float = 0.
     if levels.ndim != 1 or levels.shape != waits.shape:
         raise ValueError(f"levels and waits must be 1-D of one length; got {levels.shape} "
                          f"and {waits.shape}")
-    if not 0 < margin <= 1:
-        raise ValueError(f"margin must be in (0, 1]; got {margin!r}")
+    if not 0 < margin <= floor.accel_max / floor.force_limit:
+        raise ValueError(f"margin must be in (0, {floor.accel_max / floor.force_limit:.4g}]; "
+                         f"got {margin!r}")
+    if shape not in ("cycloid", "bang"):
+        raise ValueError(f"shape must be 'cycloid' or 'bang'; got {shape!r}")
     if not np.all(np.isfinite(waits)):
         raise ValueError("waits must be finite [s]")
     t = np.arange(floor.n_steps) / floor.sample_rate
@@ -235,10 +278,11 @@ def cycloid_transitions(floor: StiffnessFloor, levels, waits, margin: float = 0.
     for level, wait in zip(np.clip(levels, -room, room), waits):
         h = level - here
         start = max(start, end + wait)
-        tau = math.sqrt(2 * math.pi * abs(h) / a)
+        tau = math.sqrt((2 * math.pi if shape == "cycloid" else 4.0) * abs(h) / a)
         if tau > 0:
             s = np.clip((t - start) / tau, 0.0, 1.0)
-            x += h * (s - np.sin(2 * math.pi * s) / (2 * math.pi))
+            x += h * (s - np.sin(2 * math.pi * s) / (2 * math.pi) if shape == "cycloid" else
+                      np.where(s <= 0.5, 2 * s**2, 1 - 2 * (1 - s) ** 2))
         here, end = level, start + tau
     return x
 
