@@ -17,20 +17,26 @@ Families, from the near-optimal motion of the floor outward (tmopt.physics.floor
 * ``b<n>``: rise to +x_max, then n crossings between +-x_max
   (:func:`cycloid_transitions`), free margin and waits (negative: overlapping
   transitions); CMA-ES, ``--budget`` evaluations for each n of ``--crossings``;
+* ``d``: rise and crossing as bang-bang transitions (constant +-acceleration, the fastest)
+  smoothed by a moving average of free width (finite jerk for the controller); CMA-ES,
+  ``--budget`` evaluations;
 * ``c``: a free acceleration profile (:func:`knot_motion`, 59 knots: every 10 s to 300 s,
-  every 30 s after), started from family a's best; CMA-ES on the tracked-motion
-  prediction (:meth:`StiffnessFloor.expected_scores` of the motion's information with R
-  fitted: 8 ms a design against ~120 ms for a simulation; checked against the simulator's
-  prediction on every finalist), the 8 best re-scored with the simulator's prediction and
-  Eq. 20.
+  every 30 s after, peak 0.97 of the force limit), started from family a's best; CMA-ES,
+  ``--knot-budget`` evaluations (a local search: 59 dimensions).
 
-Each family's best admissible design is then run on ``--seeds`` held-out noise seeds
+The tracked-motion prediction (:meth:`StiffnessFloor.expected_scores` of the reference's
+information with R fitted, no simulation) is printed beside the simulator's for every
+finalist.  Each family's best design is then run on ``--seeds`` held-out noise seeds
 (tmopt.physics.noise.heldout_seeds) with the noisy simulator: mean M, convergence time,
 obj2 beside its floor at the held-out convergence time
 (``stiffness_floor(...).convergence_accuracy(t0, "mean")``), and Eq. 20's share kept on
-the realised runs.  Prints the table, the targets (M <= 4.5, obj2 <= 1.5x its floor) and
-the estimates of the least M (the floor's 3.48 with a free convergence time; Eq. 18's step
-law on the floor's information). Writes ``m_reachable.csv`` and ``motions.npz``.
+the realised runs.  Prints the table and the targets (M <= 4.5, obj2 <= 1.5x its floor).
+
+Then the least M: the proven floors with a free convergence time (the envelope's 3.48;
+with the intercept R fitted, :meth:`StiffnessFloor.intercept_bound`), Eq. 18's step law
+on each (estimates), and both on the most information any motion was found to have at
+each instant of ``GRID`` (``--envelope-budget`` evaluations per search; 0 skips it).
+Writes ``m_reachable.csv``, ``m_estimates.csv``, ``motions.npz`` and ``m_reachable.png``.
 """
 
 from __future__ import annotations
@@ -40,7 +46,11 @@ import sys
 import time
 from dataclasses import replace
 
+import matplotlib
 import numpy as np
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
 from pymoo.algorithms.soo.nonconvex.cmaes import CMAES
 from pymoo.core.problem import Problem
 from pymoo.optimize import minimize
@@ -158,7 +168,9 @@ class _Search(Problem):
 
 def cmaes(lo, hi, x0, evaluate, budget: int, seed: int, sigma: float = 0.25) -> np.ndarray:
     """Best parameters found by CMA-ES (pymoo, bounds normalised) within ``budget``."""
-    res = minimize(_Search(lo, hi, evaluate), CMAES(x0=np.asarray(x0, float), sigma=sigma,
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    x0 = np.clip(np.asarray(x0, float), lo + 1e-6 * (hi - lo), hi - 1e-6 * (hi - lo))
+    res = minimize(_Search(lo, hi, evaluate), CMAES(x0=x0, sigma=sigma,
                    restarts=0), ("n_evals", budget), seed=seed, verbose=False)  # fmt: skip
     return np.atleast_1d(res.X)
 
@@ -188,6 +200,28 @@ def family_b(st: Study, n: int, budget: int, seed: int):
     return {f"b{n}": (build(p), p)}
 
 
+def smoothed(x: np.ndarray, width: float, sample_rate: float) -> np.ndarray:
+    """Causal moving average of ``x`` over ``width`` [s]: starts at rest where x does,
+    stays within x's bounds, keeps its acceleration bound, limits its jerk to 2 a / width."""
+    k = max(1, int(round(width * sample_rate)))
+    c = np.concatenate([np.zeros(k), np.cumsum(x)])
+    return (c[k:] - c[:-k]) / k
+
+
+def family_d(st: Study, budget: int, seed: int):
+    """Rise and one crossing as rest-to-rest bang-bang transitions (the fastest at their
+    acceleration) smoothed by a moving average of free width (finite jerk, for the
+    controller): free margin, width [s] and waits."""
+    room = st.floor.x_max * (1 - 1e-4)
+
+    def build(p):
+        x = cycloid_transitions(st.floor, [room, -room], p[2:], float(p[0]), "bang")
+        return smoothed(x, float(p[1]), st.floor.sample_rate)
+    p = cmaes([0.5, 1.0, 0.0, -150.0], [0.99, 80.0, 100.0, 300.0], [0.85, 30.0, 0.0, 0.0],
+              simulated(st, build), budget, seed)
+    return {"d": (build(p), p)}
+
+
 def family_c(st: Study, start: np.ndarray, budget: int, seed: int):
     """Knot motions (peak ``cap`` of the force limit), CMA-ES on the simulator's
     prediction from ``start``'s acceleration sampled at the knots."""
@@ -206,9 +240,11 @@ def family_c(st: Study, start: np.ndarray, budget: int, seed: int):
 def most_information(st: Study, grid: np.ndarray, budget: int, seed: int) -> np.ndarray:
     """Largest ``sum_{m <= n} (x_m - mean x)^2`` [m^2] found at each time of ``grid`` [s]
     over motions from rest with ``|x''| <= accel_max`` and ``|x| <= x_max``, each instant
-    with its own motion: CMA-ES (``budget`` evaluations per try) over knot accelerations (24
+    with its own motion: the constant acceleration while it stays inside x_max (it attains
+    the proven bound), CMA-ES (``budget`` evaluations per try) over knot accelerations (24
     knots on [0, t], started from the constant acceleration and from the previous instant's
-    best) and over 1-4 bang-bang transitions between free levels with free waits.  A
+    best) and over 1-4 bang-bang transitions between free levels with free waits (three
+    starts each: alternating +-, two random).  A
     numerical maximum: it estimates (from below) the most information any motion has at
     that instant; :meth:`StiffnessFloor.intercept_bound` is the proven bound above it."""
     fl = st.floor
@@ -221,22 +257,29 @@ def most_information(st: Study, grid: np.ndarray, budget: int, seed: int) -> np.
         def knot_pop(P, knots=knots, n=n):
             return spread(np.stack([knot_motion(fl, top * np.tanh(z), knots)[:n] for z in P]),
                           fl.x_max)
-        best = -np.inf
+        t = np.arange(n) / fl.sample_rate
+        parabola = 0.5 * fl.accel_max * t**2  # attains the proven bound while inside x_max
+        best = -spread(parabola[None], fl.x_max)[0] if parabola[-1] <= fl.x_max else -np.inf
+        knot_best = -np.inf
         for z0 in [np.full(24, 3.0)] + ([z_prev] if z_prev is not None else []):
             z = cmaes([-3.0] * 24, [3.0] * 24, z0, knot_pop, budget, seed + k_t, sigma=0.2)
             v = -knot_pop(z[None])[0]
-            if v > best:
-                best, z_best = v, z
-        z_prev = z_best
+            if v > knot_best:
+                knot_best, z_prev_next = v, z
+        z_prev, best = z_prev_next, max(best, knot_best)
         for k in (1, 2, 3, 4):
             def bang_pop(P, k=k, n=n):
                 return spread(np.stack([cycloid_transitions(
                     fl, fl.x_max * np.tanh(p[:k]), 100 * p[k:], top, "bang")[:n] for p in P]),
                     fl.x_max)
-            x0 = np.concatenate([np.where(np.arange(k) % 2, -1.5, 1.5), np.zeros(k)])
-            p = cmaes([-3.0] * k + [0.0] * k, [3.0] * k + [6.0] * k, x0, bang_pop, budget,
-                      seed + 10 * k_t + k)
-            best = max(best, -bang_pop(p[None])[0])
+            rng = np.random.default_rng([seed, k_t, k])
+            starts = [np.concatenate([np.where(np.arange(k) % 2, -1.5, 1.5), np.zeros(k)])]
+            starts += [np.concatenate([rng.normal(0, 1.5, k), rng.uniform(0, 2, k)])
+                       for _ in range(2)]
+            for j, x0 in enumerate(starts):
+                p = cmaes([-3.0] * k + [0.0] * k, [3.0] * k + [6.0] * k, x0, bang_pop,
+                          budget, seed + 100 * k_t + 10 * k + j)
+                best = max(best, -bang_pop(p[None])[0])
         out.append(best * fl.x_max**2)
         print(f"  most information at {t_end:6.1f} s: sum (x - mean)^2 = {out[-1]:.4g} m^2 "
               f"({out[-1] / np.sum(fl.envelope()[:n] ** 2):.3f} of the envelope's)", flush=True)
@@ -310,6 +353,35 @@ def heldout(st: Study, X: np.ndarray, seeds: np.ndarray) -> list[dict]:
     return rows
 
 
+def plot(st: Study, finalists: dict, grid: np.ndarray, found: np.ndarray | None, path) -> None:
+    """Top: each family's best motion. Bottom: their information on k1xx with R fitted,
+    against the envelope's, the proven intercept bound and the most found at each instant."""
+    fl = st.floor
+    t = np.arange(fl.n_steps) / fl.sample_rate
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 7), sharex=True)
+    scale = (fl.coefficient / fl.sigma_e) ** 2
+    for name, (x, _) in finalists.items():
+        top.plot(t, 1e3 * x, lw=1, label=name)
+        bottom.plot(t, fl.motion_information(x)[0], lw=1, label=name)
+    bottom.plot(t, fl.motion_information(fl.envelope(), intercept=False)[0], "k--", lw=1.2,
+                label="envelope (floor, R ignored)")
+    bottom.plot(t, fl.intercept_bound(), "k:", lw=1.5, label="proven bound with R")
+    if found is not None:
+        bottom.plot(grid, fl.prior_info + scale * np.maximum.accumulate(found), "ko", ms=3,
+                    label="most found at each instant")
+    top.set_ylabel("TM1 reference x [mm]")
+    top.legend(fontsize=7, ncol=3)
+    bottom.set_yscale("log")
+    bottom.set_ylim(1e16, None)
+    bottom.set_xlabel("t [s]")
+    bottom.set_ylabel("information on k1xx [s^4]")
+    bottom.legend(fontsize=7)
+    top.set_title("Scheme A, Eq. 20 on the realised run: best motion of each family")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 def main(argv=None) -> None:
     args = parse(argv)
     out = output_dir("m_reachable", args.out)
@@ -321,6 +393,7 @@ def main(argv=None) -> None:
     steps = [("a", lambda: family_a(st, args.budget, args.seed))]
     steps += [(f"b{n}", lambda n=n: family_b(st, n, args.budget, args.seed))
               for n in args.crossings]
+    steps.append(("d", lambda: family_d(st, args.budget, args.seed)))
     if args.knot_budget:
         steps.append(("c", lambda: family_c(st, finalists["a"][0], args.knot_budget,
                                             args.seed)))
@@ -377,8 +450,9 @@ def main(argv=None) -> None:
           f"{MULTISINE_M}; obj2 {best['obj2_over_floor']:.2f}x its floor (target "
           f"{TARGET_OBJ2}); {time.perf_counter() - wall:.0f} s, {st.evaluations} simulator "
           f"predictions")
+    plot(st, finalists, GRID, found, out / "m_reachable.png")
     print(f"written: {out / 'm_reachable.csv'}, {out / 'm_estimates.csv'}, "
-          f"{out / 'motions.npz'}")
+          f"{out / 'motions.npz'}, {out / 'm_reachable.png'}")
 
 
 if __name__ == "__main__":

@@ -197,3 +197,43 @@ def test_step_law_estimate_lies_between_the_free_floor_and_an_admissible_motion(
     near = FL.expected_scores(FL.motion_information(near_optimal_motion(FL)))
     assert est["M"] < near["M"][0]
     assert est["convergence_time"] < near["convergence_time"][0]
+
+
+def test_intercept_bound_holds_for_realised_motions_and_constant_acceleration_attains_it():
+    """With R fitted, the information of realised admissible motions (20 a priori feasible
+    multi-sines that keep Eq. 20, the near-optimal motion) never exceeds the proven bound;
+    the constant acceleration from rest attains it until it reaches x_max, at 4/9 of the
+    envelope's (1/45 against 1/20); late in the run it is the envelope's."""
+    bound = FL.intercept_bound()
+    envelope = FL.motion_information(FL.envelope(), intercept=False)[0]
+    assert np.all(bound <= envelope)
+    early = (T > 30.0) & (T < 120.0)  # (sums over samples: 1/n from the integrals)
+    assert np.allclose(bound[early] / envelope[early], 4 / 9, rtol=5e-3)
+    assert bound[-1] == envelope[-1]
+    parabola = 0.5 * FL.accel_max * T**2
+    assert np.allclose(FL.motion_information(parabola)[0][early], bound[early], rtol=1e-6)
+    r1, r2 = study_designs(20)
+    res = simulate(r1, r2, replace(noise_free(CFG), record="full"))
+    x = near_optimal_motion(FL, 0.97, 200.0)
+    near = simulate(x[None], np.zeros((1, x.size)), replace(noise_free(RAW), record="full"))
+    ok = (po.eq20_realised(res)[:, :2] <= 0).all(axis=1)
+    assert ok.sum() >= 5 and np.all(po.eq20_realised(near)[0] <= 0)
+    motions = np.vstack([res.x1_true[ok], near.x1_true])
+    assert np.all(FL.motion_information(motions) <= bound * (1 + 1e-9))
+
+
+def test_bang_bang_transitions_are_the_fastest_at_their_acceleration():
+    """shape="bang": +-a then rest, duration 2 sqrt(h / a) (against sqrt(2 pi h / a) for the
+    cycloid of the same peak); the margin may reach accel_max / force_limit, not more."""
+    h = FL.x_max * (1 - 1e-4)
+    x = cycloid_transitions(FL, [h], [0.0], margin=1.0, shape="bang")
+    tau = 2 * np.sqrt(h / FL.force_limit)
+    assert np.all(x[T >= tau] == pytest.approx(h, abs=1e-15))
+    assert np.max(x[T < tau - 1.0]) < h
+    assert np.max(np.abs(_accel(x))) == pytest.approx(FL.force_limit, rel=1e-3)
+    top = FL.accel_max / FL.force_limit
+    cycloid_transitions(FL, [h], [0.0], margin=top, shape="bang")
+    with pytest.raises(ValueError, match="margin must be in"):
+        cycloid_transitions(FL, [h], [0.0], margin=1.01 * top)
+    with pytest.raises(ValueError, match="shape must be"):
+        cycloid_transitions(FL, [h], [0.0], shape="square")
