@@ -171,7 +171,8 @@ def cmaes(lo, hi, x0, evaluate, budget: int, seed: int, sigma: float = 0.25) -> 
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
     x0 = np.clip(np.asarray(x0, float), lo + 1e-6 * (hi - lo), hi - 1e-6 * (hi - lo))
     res = minimize(_Search(lo, hi, evaluate), CMAES(x0=x0, sigma=sigma,
-                   restarts=0), ("n_evals", budget), seed=seed, verbose=False)  # fmt: skip
+                   restarts=0), ("n_evals", budget), seed=seed + 1,  # cma: seed 0 = the clock
+                   verbose=False)  # fmt: skip
     return np.atleast_1d(res.X)
 
 
