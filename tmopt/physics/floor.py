@@ -22,7 +22,15 @@ gives a floor no admissible motion can beat (docs/noise.md derives it):
   of that for its mean (``E||v|| >= sqrt(2/pi) sqrt(E||v||^2)`` for any Gaussian vector:
   ``E sqrt(sum l_i Z_i^2)`` is concave in the eigenvalues ``l``, least at one of them);
 * ``m_floor``: the least ``w1 t0 + w2 E[obj2]`` over t0 (Eq. 29 at its own best
-  convergence time; the steps of Eq. 18 are not bounded, so this is lower than any M).
+  convergence time; the steps of Eq. 18 are not bounded).  A bound for a convergence
+  time fixed in advance; Eq. 18's n* is random and chosen by the run, and the mean of a
+  minimum can lie below the minimum of the means, a selection this does not bound.
+
+With the intercept R fitted (as the RLS does) the information is ``K^2 sum (x - mean
+x)^2 / sigma_e^2``: :meth:`StiffnessFloor.intercept_bound` bounds it tighter while the
+motion is young (4/9 of the envelope's before ``x_max`` can be reached), and
+:meth:`StiffnessFloor.expected_scores` applies Eq. 18's step law to any information
+trajectory (an estimate; docs/noise.md "How far below 5.99 can any motion go").
 
 With ``constraints="reference"`` Eq. 20 bounds the reference, not the commanded force;
 the actuator's hard limit ``F_max`` is then the acceleration bound.
