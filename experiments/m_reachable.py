@@ -374,9 +374,11 @@ def plot(st: Study, finalists: dict, grid: np.ndarray, found: np.ndarray | None,
     t = np.arange(fl.n_steps) / fl.sample_rate
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 7), sharex=True)
     scale = (fl.coefficient / fl.sigma_e) ** 2
-    for name, (x, _) in finalists.items():
-        top.plot(t, 1e3 * x, lw=1, label=name)
-        bottom.plot(t, fl.motion_information(x)[0], lw=1, label=name)
+    colours = plt.get_cmap("tab20").colors  # more families than tab10's ten colours
+    for i, (name, (x, _)) in enumerate(finalists.items()):
+        style = {"lw": 1, "label": name, "color": colours[i % len(colours)]}
+        top.plot(t, 1e3 * x, **style)
+        bottom.plot(t, fl.motion_information(x)[0], **style)
     bottom.plot(t, fl.motion_information(fl.envelope(), intercept=False)[0], "k--", lw=1.2,
                 label="envelope (floor, R ignored)")
     bottom.plot(t, fl.intercept_bound(), "k:", lw=1.5, label="proven bound with R")
