@@ -56,3 +56,33 @@ def test_fig8_panel_of_a_scheme_without_runs_has_a_note_and_no_ticks(monkeypatch
     assert [ax.texts[0].get_text() for ax in panels] == [
         f"no runs of scheme {s}" for s in "ABC"]
     assert all(len(ax.get_xticks()) == 0 and len(ax.get_yticks()) == 0 for ax in axes)
+
+
+def _scheme_row(scheme: str, k: int, noise: str, heldout: list, search: list,
+                feasible: float = 1.0) -> dict:
+    return {"setting": {"scheme": scheme, "problem.n_freq": k, "problem.noise": noise},
+            "values": {"heldout_M": heldout, "M_TM1": search},
+            "chosen_feasible": (feasible, 0.0)}
+
+
+def test_fig9_draws_medians_with_quartiles_every_run_and_the_floor(monkeypatch, tmp_path):
+    # one stuck run (M 100) must not move the line: the median of 6, 7, 100 is 7
+    rows = [_scheme_row("B", 1, "fixed", [6.0, 7.0, 100.0], [5.0, 5.5, 6.0]),
+            _scheme_row("B", 2, "fixed", [8.0, 9.0, None], [6.0, 7.0, 8.0], feasible=2 / 3)]
+    axes = _axes(monkeypatch, lambda: figures.fig9(rows, tmp_path / "f9.png", 3.48))
+    a, b, c = axes
+    assert [t.get_text() for t in a.texts] == ["no runs of scheme A"]
+    series = {c.get_label(): c.lines[0] for c in b.containers}  # errorbar: line, caps, bars
+    np.testing.assert_allclose(series["problem.noise=fixed, held-out"].get_ydata(), [7.0, 8.5])
+    np.testing.assert_allclose(series["problem.noise=fixed, search draw"].get_ydata(),
+                               [5.5, 7.0])
+    held = next(c for c in b.containers if c.get_label().endswith("held-out"))
+    bar = held.lines[2][0].get_segments()[0]  # k = 1: from the lower to the upper quartile
+    np.testing.assert_allclose(bar[:, 1], np.percentile([6.0, 7.0, 100.0], [25, 75]))
+    lines = {ln.get_label(): ln for ln in b.get_lines()}
+    dots = [ln for ln in b.get_lines() if ln.get_label() == "_runs"]
+    assert sorted(y for ln in dots for y in ln.get_ydata()) == [6.0, 7.0, 8.0, 9.0, 100.0]
+    assert lines["physical floor M = 3.48"].get_ydata()[0] == 3.48
+    assert [tuple(ln.get_xdata()) for ln in b.get_lines() if ln.get_label() == "_infeasible"] \
+        == [(2.0,)]
+    assert b.get_yscale() == "log"  # shared: every value is positive

@@ -77,7 +77,9 @@ CONSTRAINT_MODES = ("realised", "reference")
 #: How an evaluation meets the noise (module docstring, docs/noise.md).
 NOISE_MODES = ("fixed", "fresh", "average", "information")
 #: The run ``information`` checks the realised Eq. 20 on (constructor docstring).
-INFORMATION_CONSTRAINTS = ("noise_free", "noise_seed")
+INFORMATION_CONSTRAINTS = ("noise_free", "noise_seed", "noise_margin")
+#: Noise-only runs whose largest peaks make ``noise_margin``'s back-off (docs/noise.md).
+MARGIN_SEEDS = 32
 #: Designs per noise-free run with every channel recorded (information mode): ~2 MB each.
 _FULL_RECORD_CHUNK = 16
 
@@ -95,7 +97,8 @@ class StiffnessProblem(ExpensiveProblem):
         noise: ``"fixed"`` | ``"fresh"`` | ``"average"`` | ``"information"`` (module
             docstring).
         noise_seed: The ``fixed`` realisation, the first of ``average``'s K and the key of
-            ``fresh``'s hash; in [0, 2^50 - noise_samples].
+            ``fresh``'s hash, and of ``noise_margin``'s runs; in
+            [0, 2^50 - max(noise_samples, MARGIN_SEEDS)].
         noise_samples: K, the realisations ``average`` scores each design on (1..1000).
         heldout_seeds: Held-out realisations the chosen design and the final front are
             re-scored on after a run (0: none; >= 32 for a figure worth reporting).
@@ -111,9 +114,11 @@ class StiffnessProblem(ExpensiveProblem):
             or ``"reference"`` (on the reference motion, before simulating).
         information_constraints: With ``noise="information"`` and realised constraints,
             the run Eq. 20 is checked on: ``"noise_free"`` (the predicted objectives' own
-            run; the noise's share of the force is not seen) or ``"noise_seed"`` (the run at
-            ``noise_seed``, as ``fixed`` checks it; one more simulation per design).
-            docs/noise.md "Constraints under information".
+            run; the noise's share of the force is not seen), ``"noise_seed"`` (the run at
+            ``noise_seed``, as ``fixed`` checks it; one more simulation per design) or
+            ``"noise_margin"`` (the noise-free run with the limits backed off by the
+            largest peak force and displacement of ``MARGIN_SEEDS`` noise-only runs:
+            no draw per design). docs/noise.md "Constraints under information".
         ramp_in: Seconds over which every reference is ramped in (raised cosine; 0: none).
         rls_columns: Identified theta columns: a name of ``RLS_COLUMN_SETS`` ("sensitive":
             k1xx, k2xx, R; "all": the five of Eq. 14) or a list of names; it must
@@ -171,7 +176,7 @@ class StiffnessProblem(ExpensiveProblem):
                              f"got {noise!r}")
         _check_int(name, "noise_samples", noise_samples, 1, 1000)
         _check_int(name, "noise_seed", noise_seed, USER_SEEDS[0],
-                   USER_SEEDS[1] - int(noise_samples))
+                   USER_SEEDS[1] - max(int(noise_samples), MARGIN_SEEDS))
         _check_int(name, "heldout_seeds", heldout_seeds, 0, 100_000)
         self.scheme, self.n_freq, self.key_tm = scheme, int(n_freq), int(key_tm)
         self.noise_seed, self.chunk = int(noise_seed), int(chunk)
@@ -264,12 +269,34 @@ class StiffnessProblem(ExpensiveProblem):
 
     @property
     def seeds_per_evaluation(self) -> int:
-        """Noise realisations that score one evaluation (``information``: 0, or the one
-        its constraints are checked on with ``information_constraints="noise_seed"``)."""
-        drawn = int(self.constraint_mode == "realised"
-                    and self.information_constraints == "noise_seed")
+        """Noise realisations that score one evaluation (``information``: 0, the one its
+        constraints are checked on with ``information_constraints="noise_seed"``, or the
+        ``MARGIN_SEEDS`` noise-only runs behind ``"noise_margin"``'s back-off)."""
         return {"fixed": 1, "fresh": 1, "average": self.noise_samples,
-                "information": drawn}[self.noise]  # fmt: skip
+                "information": len(self._information_seeds())}[self.noise]  # fmt: skip
+
+    def _information_seeds(self) -> np.ndarray:
+        """The realisations ``information``'s constraints depend on (none if noise-free)."""
+        if self.constraint_mode != "realised":
+            return np.zeros(0, dtype=np.int64)
+        n = {"noise_free": 0, "noise_seed": 1,
+             "noise_margin": MARGIN_SEEDS}[self.information_constraints]  # fmt: skip
+        return self.noise_seed + np.arange(n, dtype=np.int64)
+
+    def noise_margin(self) -> np.ndarray:
+        """``noise_margin``'s back-off, (4,) ``[u TM1, x TM1, u TM2, x TM2]`` in the units
+        of :func:`tmopt.physics.objectives.eq20_realised`: per channel the largest peak
+        over ``MARGIN_SEEDS`` runs of the controlled system with both references at
+        rest (the noise alone). The closed loop is close to linear, so a design's noisy
+        peak is at most its noise-free peak plus the noise's own (the triangle
+        inequality; checked on simulated designs in
+        ``test_noise_margin_bounds_the_noisy_runs_peaks``). Computed once per problem."""
+        if getattr(self, "_margin", None) is None:
+            seeds = self._information_seeds()
+            rest = self.simulate_designs(np.zeros((len(seeds), self.n_var)), seed=seeds)
+            x, u = rest.max_abs_position.max(axis=0), rest.max_abs_command.max(axis=0)
+            self._margin = np.array([u[0], x[0], u[1], x[1]])
+        return self._margin
 
     def noise_seeds(self, n: int, rows=None, run_seed: int = 0) -> np.ndarray:
         """Seeds scoring ``n`` evaluations, (n, K) int64: ``rows`` are their archive rows
@@ -279,14 +306,17 @@ class StiffnessProblem(ExpensiveProblem):
                 rows = np.arange(self._fresh_rows, self._fresh_rows + n)
                 self._fresh_rows += n
             return fresh_seeds(self.noise_seed, run_seed, np.asarray(rows)).reshape(n, 1)
-        base = self.noise_seed + np.arange(self.seeds_per_evaluation, dtype=np.int64)
+        base = self._information_seeds() if self.noise == "information" else \
+            self.noise_seed + np.arange(self.seeds_per_evaluation, dtype=np.int64)
         return np.tile(base, (n, 1))
 
     def _evaluate(self, X, out, *args, rows=None, run_seed: int = 0, **kwargs):
         seeds = self.noise_seeds(len(X), rows, run_seed)
         per_call = self.chunk if self.noise != "information" else \
             min(self.chunk, _FULL_RECORD_CHUNK)
-        step = max(1, per_call // max(1, seeds.shape[1]))
+        draws = 0 if self.noise == "information" and \
+            self.information_constraints == "noise_margin" else seeds.shape[1]  # shared runs
+        step = max(1, per_call // max(1, draws))
         F, G, reason = [], [], []
         for start in range(0, len(X), step):
             f, g, r = self._evaluate_chunk(X[start:start + step], seeds[start:start + step])
@@ -332,6 +362,9 @@ class StiffnessProblem(ExpensiveProblem):
             g = self._normalised(phys_obj.eq20_realised(drawn))
             reason = [r or (d_r if d else "") for r, d_r, d in
                       zip(reason, drawn.reason, drawn.diverged)]
+        elif self.constraint_mode == "realised" and \
+                self.information_constraints == "noise_margin":
+            g = self._normalised(phys_obj.eq20_realised(result) + self.noise_margin())
         elif self.constraint_mode == "realised":
             g = self._normalised(phys_obj.eq20_realised(result))
         else:

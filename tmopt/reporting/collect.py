@@ -55,6 +55,7 @@ from tmopt.reporting.tables import (
     SEARCH_DRAW_METRICS,
     STIFFNESS_METRICS,
     csv_rows,
+    first_floor,
     floor_note,
     markdown_rows,
     paper_comparison,
@@ -206,7 +207,8 @@ def _write_stiffness(runs: list[RunRecord], out: Path, reference: str,
                 "std over runs); 'search draw': what the search saw. " + HELDOUT_NOTE + " "
                 + floor_note(runs) + " " + TEST_NOTE)
     figures.fig8(rows, out / "fig8.png")
-    figures.fig9(rows, out / "fig9.png")
+    floor = first_floor(runs)
+    figures.fig9(rows, out / "fig9.png", floor.get("M") if floor else None)
     notes = [f"`configurations.md`, `fig8.png`, `fig9.png`: {len(rows)} stiffness "
              f"settings ({', '.join(keys)})."]
     t3_runs = [r for r in runs if all(r.value(k) == v for k, v in TABLE3_SETTING.items())]

@@ -42,15 +42,44 @@ def _series(rows: list[dict], scheme: str) -> dict[str, list[dict]]:
     return out
 
 
-def _errorbar(ax, rows: list[dict], key: str, **kw) -> None:
-    """Mean ± std against k; a black x where some run's chosen design is infeasible."""
-    k = [int(r["setting"]["problem.n_freq"]) for r in rows]
-    mean = [r[key][0] for r in rows]
-    std = [0.0 if not math.isfinite(r[key][1]) else r[key][1] for r in rows]
-    ax.errorbar(k, mean, yerr=std, capsize=3, **{"marker": "o", **kw})
-    bad = [(ki, m) for ki, m, r in zip(k, mean, rows) if r["chosen_feasible"][0] < 1]
+def _quartiles(row: dict, key: str) -> tuple[float, float, float, np.ndarray]:
+    """Median, lower and upper quartile of one setting's per-run values (NaN if none)."""
+    v = np.asarray([x for x in row["values"].get(key, []) if x is not None], float)
+    v = v[np.isfinite(v)]
+    if not len(v):
+        return math.nan, math.nan, math.nan, v
+    q1, med, q3 = np.percentile(v, [25, 50, 75])
+    return float(med), float(q1), float(q3), v
+
+
+def _median_iqr(ax, rows: list[dict], key: str, shift: float = 0.0, runs: bool = True,
+                **kw) -> None:
+    """Median against k with the interquartile range as bars and every run as a dot.
+
+    Held-out M and accuracies are skewed (one stuck run multiplies a mean and its std,
+    docs/results.md, Figs. 8-9), so the figure shows what a typical run gets and how far
+    runs spread, not mean ± std. ``shift`` moves a series sideways so that series at the
+    same k do not hide each other. A black x: some run's chosen design is infeasible.
+    ``runs=False`` (a secondary series, e.g. the search draw): the line and bars only.
+    """
+    k = np.array([int(r["setting"]["problem.n_freq"]) for r in rows], float) + shift
+    q = [_quartiles(r, key) for r in rows]
+    med = np.array([x[0] for x in q])
+    err = np.array([[m - lo, hi - m] for m, lo, hi, _ in q]).T.reshape(2, -1)
+    line = ax.errorbar(k, med, yerr=np.nan_to_num(err), capsize=3, **{"marker": "o", **kw})
+    if not runs:  # a secondary series: its line only
+        return
+    for ki, (*_, v) in zip(k, q):
+        ax.plot(np.full(len(v), ki), v, ".", color=line.lines[0].get_color(), alpha=0.35,
+                ms=4, label="_runs")
+    bad = [(ki, m) for ki, m, r in zip(k, med, rows) if r["chosen_feasible"][0] < 1]
     if bad:
         ax.plot(*zip(*bad), "kx", ms=9, label="_infeasible")
+
+
+def _shifts(n: int, width: float = 0.24) -> list[float]:
+    """Sideways offsets of n series at one k, spread over ``width``."""
+    return [0.0] if n < 2 else list(np.linspace(-width / 2, width / 2, n))
 
 
 def fig8(rows: list[dict], path: Path) -> None:
@@ -64,49 +93,64 @@ def fig8(rows: list[dict], path: Path) -> None:
             note_nothing_to_draw(ax, f"no runs of scheme {scheme}")
             ax2.set_yticks([])
             continue
+        shifts = _shifts(len(series_of_scheme))
         for i, (name, series) in enumerate(series_of_scheme.items()):
-            _errorbar(ax, series, "heldout_convergence_time", color=f"C{i}",
-                      label=f"{name}: time")
-            _errorbar(ax2, series, "heldout_convergence_accuracy", color=f"C{i}", ls="--",
-                      marker="s", mfc="white", label=f"{name}: accuracy")
+            _median_iqr(ax, series, "heldout_convergence_time", shifts[i], color=f"C{i}",
+                        label=f"{name}: time")
+            _median_iqr(ax2, series, "heldout_convergence_accuracy", shifts[i], runs=False,
+                        color=f"C{i}", ls="--", marker="s", mfc="white",
+                        label=f"{name}: accuracy")
         ax.set_xlabel("number of frequencies k")
         ax.xaxis.get_major_locator().set_params(integer=True)
         ax.set_ylabel("convergence time TM1 (s), solid")
         ax2.set_ylabel("convergence accuracy TM1 (s$^{-2}$), dashed")
         _log_if_positive(ax2)
         _merged_legend(ax, ax2)
-    fig.suptitle("Fig. 8: chosen design (Eq. 21) per configuration on held-out noise seeds, "
-                 "mean ± std over runs (x: the chosen design of some run is infeasible)",
-                 fontsize=10)
+    fig.suptitle("Fig. 8: chosen design (Eq. 21) per configuration on held-out noise seeds: "
+                 "median and interquartile range over runs, dots: single runs' times\n"
+                 "(x: the chosen design of some run is infeasible)", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
 
 
-def fig9(rows: list[dict], path: Path) -> None:
-    """M (Eq. 29) of the chosen design against k, one line per scheme (and algorithm)."""
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    i = 0
-    for scheme in SCHEMES:
-        for name, series in _series(rows, scheme).items():
-            _errorbar(ax, series, "heldout_M", color=f"C{i}",
-                      label=f"scheme {scheme}: {name}, held-out")
-            k = [int(r["setting"]["problem.n_freq"]) for r in series]
-            ax.plot(k, [r["M_TM1"][0] for r in series], color=f"C{i}", ls=":", marker=".",
-                    label=f"scheme {scheme}: {name}, search draw")
-            i += 1
-    ax.set_xlabel("number of frequencies k")
-    ax.xaxis.get_major_locator().set_params(integer=True)
-    ax.set_ylabel("M of TM1 [-] (Eq. 29, lower is better)")
-    if not i:
-        note_nothing_to_draw(ax, "no stiffness runs with a scheme and k to draw")
-    else:
-        log_if_spanning_decades(ax, [y for ln in ax.get_lines() for y in ln.get_ydata()])
-    ax.set_title("Fig. 9: M per configuration on held-out noise seeds, mean ± std over runs;\n"
-                 "dotted: the search draw (x: the chosen design of some run is infeasible)",
+def fig9(rows: list[dict], path: Path, floor_M: float | None = None) -> None:
+    """M (Eq. 29) of the chosen design against k: one panel per scheme, one line per
+    setting (held-out solid, the search draw dotted), the physical floor ``floor_M``
+    (docs/noise.md) as a grey line."""
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6), sharey=True)
+    drawn = []
+    nothing = not any(_series(rows, scheme) for scheme in SCHEMES)
+    for ax, scheme in zip(axes, SCHEMES):
+        series_of_scheme = _series(rows, scheme)
+        ax.set_title(f"({'abc'[SCHEMES.index(scheme)]}) Scheme {scheme}")
+        ax.set_xlabel("number of frequencies k")
+        if not series_of_scheme:
+            note_nothing_to_draw(ax, "no stiffness runs with a scheme and k to draw"
+                                 if nothing else f"no runs of scheme {scheme}")
+            continue
+        shifts = _shifts(len(series_of_scheme))
+        for i, (name, series) in enumerate(series_of_scheme.items()):
+            _median_iqr(ax, series, "heldout_M", shifts[i], color=f"C{i}",
+                        label=f"{name}, held-out")
+            _median_iqr(ax, series, "M_TM1", shifts[i], runs=False, color=f"C{i}", ls=":",
+                        marker=".", alpha=0.6, label=f"{name}, search draw")
+        if floor_M is not None and math.isfinite(floor_M):
+            ax.axhline(floor_M, color="0.4", ls="--", lw=1,
+                       label=f"physical floor M = {floor_M:.2f}")
+        ax.xaxis.get_major_locator().set_params(integer=True)
+        ax.legend(fontsize=7)
+        drawn.append(ax)
+    axes[0].set_ylabel("M of TM1 [-] (Eq. 29, lower is better)")
+    values = np.concatenate([np.asarray(ln.get_ydata(), float) for ax in drawn
+                             for ln in ax.get_lines()] or [np.zeros(0)])
+    values = values[np.isfinite(values)]
+    if len(values) and np.all(values > 0):  # a stuck run lies 10-70x above the rest
+        axes[0].set_yscale("log")  # shared by the three panels
+    fig.suptitle("Fig. 9: M per configuration on held-out noise seeds: median and "
+                 "interquartile range over runs, dots: single runs; dotted: the search "
+                 "draw's median\n(x: the chosen design of some run is infeasible)",
                  fontsize=10)
-    if i:
-        ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)

@@ -199,18 +199,22 @@ def _below_floor(run: RunRecord, flag: str) -> bool:
     return flag in (floor.get("below_floor") or [])
 
 
+def first_floor(runs: list[RunRecord]) -> dict | None:
+    """The physical floor block of the first run whose metrics.json has one."""
+    return next((fl for run in runs if (fl := (run.metrics or {}).get("floor"))), None)
+
+
 def floor_note(runs: list[RunRecord]) -> str:
     """One sentence: the physical floor of the runs' problem (the first run that has one)."""
-    for run in runs:
-        fl = (run.metrics or {}).get("floor")
-        if fl:
-            return (f"Physical floor ({fl.get('parameter', 'k1xx')}, docs/noise.md): final "
-                    f"accuracy >= {fmt_number(fl['final_accuracy_mean'], True)} s^-2 (mean "
-                    f"|error|; rms {fmt_number(fl['final_accuracy_rms'], True)}), M >= "
-                    f"{fmt_number(fl['M'])} (at a convergence time of "
-                    f"{fl['M_at_convergence_time']:.0f} s); ‡k: k runs below their floor, "
-                    "which only noise luck gives.")
-    return ""
+    fl = first_floor(runs)
+    if not fl:
+        return ""
+    return (f"Physical floor ({fl.get('parameter', 'k1xx')}, docs/noise.md): final "
+            f"accuracy >= {fmt_number(fl['final_accuracy_mean'], True)} s^-2 (mean "
+            f"|error|; rms {fmt_number(fl['final_accuracy_rms'], True)}), M >= "
+            f"{fmt_number(fl['M'])} (at a convergence time of "
+            f"{fl['M_at_convergence_time']:.0f} s); ‡k: k runs below their floor, "
+            "which only noise luck gives.")
 
 
 def _complete(runs: list[RunRecord]) -> list[RunRecord]:
