@@ -307,7 +307,7 @@ def m_estimates(st: Study, grid: np.ndarray, found: np.ndarray | None
     bound = fl.intercept_bound()
     out = {"floor_free_t0": fl.m_floor()[0],
            "floor_step_law": float(fl.expected_scores(envelope[None])["M"][0]),
-           "intercept_free_t0": _free_t0(fl, bound),
+           "intercept_free_t0": fl.m_floor(info=bound)[0],
            "intercept_step_law": float(fl.expected_scores(bound[None])["M"][0])}
     infos = {"intercept": bound}
     if found is not None:
@@ -323,27 +323,12 @@ def m_estimates(st: Study, grid: np.ndarray, found: np.ndarray | None
         smooth *= np.minimum(t / grid[0], 1.0) ** 5  # ~ t^5 before the first grid time
         info = np.minimum(fl.prior_info + scale * smooth, bound)
         step = fl.expected_scores(info[None])
-        out.update({"found_free_t0": _free_t0(fl, upper), "found_step_law": float(step["M"][0]),
+        out.update({"found_free_t0": fl.m_floor(info=upper)[0],
+                    "found_step_law": float(step["M"][0]),
                     "found_step_law_t0": float(step["convergence_time"][0]),
                     "found_step_law_obj2": float(step["convergence_accuracy"][0])})
         infos["found"] = upper
     return out, infos
-
-
-def obj2_floor(fl, info: np.ndarray, t0: float) -> float:
-    """Eq. 19's mean floor after ``t0`` [s] for an information trajectory (the floor's rule:
-    ``sqrt(2/pi) sqrt(mean_{n >= n0} 1/info)``)."""
-    n0 = int(np.clip(round(t0 * fl.sample_rate), 0, fl.n_steps - 1))
-    return float(np.sqrt(2 / np.pi) * np.sqrt(np.mean(1.0 / info[n0:])))
-
-
-def _free_t0(fl, info: np.ndarray) -> float:
-    """``min_t0 w1 t0 + w2 sqrt(2/pi) sqrt(mean_{n >= n0} 1/info)`` (m_floor's rule)."""
-    var = 1.0 / info
-    n = np.arange(fl.n_steps)
-    tail = np.cumsum(var[::-1])[::-1] / (fl.n_steps - n)
-    w1, w2 = po.M_WEIGHTS
-    return float(np.min(w1 * n / fl.sample_rate + w2 * np.sqrt(2 / np.pi) * np.sqrt(tail)))
 
 
 def heldout(st: Study, X: np.ndarray, seeds: np.ndarray) -> list[dict]:
@@ -443,7 +428,7 @@ def main(argv=None) -> None:
              "obj2_pred": float(pred["convergence_accuracy"][i]),
              "eq20_g_margin": float(pred["g"][i]), **held[i]}
         for name, info in infos.items():  # obj2's floor with R / estimate at the same t0
-            r[f"obj2_floor_{name}"] = obj2_floor(fl, info, r["t0_heldout"])
+            r[f"obj2_floor_{name}"] = fl.convergence_accuracy(r["t0_heldout"], "mean", info)
             r[f"obj2_over_{name}"] = r["obj2_heldout"] / r[f"obj2_floor_{name}"]
         rows.append(r)
     write_rows(out / "m_reachable.csv", rows)

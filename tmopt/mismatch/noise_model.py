@@ -346,13 +346,16 @@ class NoiseModel:
             return self.spatial(arr)
         out = np.zeros(arr.shape)
         for a, b in self.layout.bounds:
-            piece = arr[:, a:b]
             m = b - a
             win = taper(m, self.taper_fraction) if self.tapered else np.ones(m)
-            xf = np.fft.rfft(piece * win, axis=1)
-            wf = np.einsum("fij,jf->if", self._whitener(m), xf)
-            out[:, a:b] = np.fft.irfft(wf, n=m, axis=1)
+            out[:, a:b] = self._whitened(arr[:, a:b], win)
         return out
+
+    def _whitened(self, piece: np.ndarray, win: np.ndarray) -> np.ndarray:
+        """One stretch (C, m) times the window ``win`` (m,): ``L(f)^-1 X(f)`` back in time."""
+        m = piece.shape[1]
+        wf = np.einsum("fij,jf->if", self._whitener(m), np.fft.rfft(piece * win, axis=1))
+        return np.fft.irfft(wf, n=m, axis=1)
 
     def whiten_local(self, arr: np.ndarray, block: int = LOCAL_BLOCK) -> tuple[np.ndarray,
                                                                            np.ndarray]:
@@ -374,24 +377,18 @@ class NoiseModel:
         if not self.tapered:
             return self.whiten(arr), np.ones(arr.shape[1], bool)
         out = np.zeros(arr.shape)
-        mask = np.zeros(arr.shape[1], bool)
+        mask = self.interior()  # short segments keep whiten's tapered interior
         win = hann(block, sym=False)
         hop = block // 2
-        whitener = self._whitener(block)
         for a, b in self.layout.bounds:
             m = b - a
             if m < 2 * block:
-                piece = arr[:, a:b]
-                wf = np.einsum("fij,jf->if", self._whitener(m),
-                               np.fft.rfft(piece * taper(m, self.taper_fraction), axis=1))
-                out[:, a:b] = np.fft.irfft(wf, n=m, axis=1)
-                mask[a:b] = taper(m, self.taper_fraction) >= 0.9
+                out[:, a:b] = self._whitened(arr[:, a:b], taper(m, self.taper_fraction))
                 continue
             for s0 in range(a, b - block + 1, hop):
-                xf = np.fft.rfft(arr[:, s0:s0 + block] * win, axis=1)
-                out[:, s0:s0 + block] += np.fft.irfft(
-                    np.einsum("fij,jf->if", whitener, xf), n=block, axis=1)
+                out[:, s0:s0 + block] += self._whitened(arr[:, s0:s0 + block], win)
             last = a + ((m - block) // hop) * hop + block  # end of the last whole block
+            mask[a:b] = False
             mask[a + hop:last - hop] = True
             out[:, a:a + hop] = 0.0
             out[:, last - hop:b] = 0.0

@@ -47,6 +47,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.integrate import cumulative_trapezoid
 
 from tmopt.physics.information import convergence_law, equation_noise_sigma, expected_rms_after
 from tmopt.physics.objectives import EPSILON, M_WEIGHTS, PARAMETERS
@@ -101,22 +102,26 @@ class StiffnessFloor:
         """Least mean absolute error of the final estimate [s^-2] (``sqrt(2/pi)`` final)."""
         return _MEAN_OF_ABS * self.final
 
-    def convergence_accuracy(self, t0, statistic: str = "rms") -> np.ndarray | float:
+    def convergence_accuracy(self, t0, statistic: str = "rms",
+                             info: np.ndarray | None = None) -> np.ndarray | float:
         """Least Eq. 19 after convergence time(s) ``t0`` [s]: ``"rms"`` (root mean square
-        over noise draws) or ``"mean"``; a float for a scalar t0."""
+        over noise draws) or ``"mean"``; a float for a scalar t0.  ``info`` (N,) [s^4]: the
+        same rule on another information trajectory (default: the envelope's, the floor)."""
         if statistic not in ("rms", "mean"):
             raise ValueError(f"statistic must be 'rms' or 'mean'; got {statistic!r}")
-        var = self.variance()
+        var = self.variance() if info is None else 1.0 / np.asarray(info, float)
         tail = np.cumsum(var[::-1])[::-1] / (self.n_steps - np.arange(self.n_steps))
         n0 = np.clip(np.round(np.asarray(t0, float) * self.sample_rate).astype(int), 0,
                      self.n_steps - 1)  # fmt: skip
         out = np.sqrt(tail[n0]) * (_MEAN_OF_ABS if statistic == "mean" else 1.0)
         return float(out) if np.ndim(out) == 0 else out
 
-    def m_floor(self, weights: tuple[float, float] = M_WEIGHTS) -> tuple[float, float]:
-        """``(M, t0)``: the least ``w1 t0 + w2 E[obj2](t0)`` (Eq. 29) and where it is."""
+    def m_floor(self, weights: tuple[float, float] = M_WEIGHTS,
+                info: np.ndarray | None = None) -> tuple[float, float]:
+        """``(M, t0)``: the least ``w1 t0 + w2 E[obj2](t0)`` (Eq. 29) and where it is, on
+        the envelope's information or on ``info`` (N,) [s^4]."""
         t0 = np.arange(self.n_steps) / self.sample_rate
-        m = weights[0] * t0 + weights[1] * self.convergence_accuracy(t0, "mean")
+        m = weights[0] * t0 + weights[1] * self.convergence_accuracy(t0, "mean", info)
         best = int(np.argmin(m))
         return float(m[best]), float(t0[best])
 
@@ -313,8 +318,8 @@ def knot_motion(floor: StiffnessFloor, accel, knots=None) -> np.ndarray:
         raise ValueError("knots must be increasing times > 0 s, one per accel value")
     acc = floor.force_limit * np.interp(t, np.concatenate([[0.0], knots]),
                                         np.concatenate([[0.0], accel]))  # fmt: skip
-    vel = np.concatenate([[0.0], np.cumsum(0.5 * (acc[1:] + acc[:-1]) * dt)])
-    return np.concatenate([[0.0], np.cumsum(0.5 * (vel[1:] + vel[:-1]) * dt)])
+    vel = cumulative_trapezoid(acc, dx=dt, initial=0.0)
+    return cumulative_trapezoid(vel, dx=dt, initial=0.0)
 
 
 def near_optimal_motion(floor: StiffnessFloor, margin: float = 0.8,

@@ -120,9 +120,10 @@ def fig9(rows: list[dict], path: Path, floor_M: float | None = None) -> None:
     (docs/noise.md) as a grey line."""
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.6), sharey=True)
     drawn = []
-    nothing = not any(_series(rows, scheme) for scheme in SCHEMES)
+    by_scheme = {scheme: _series(rows, scheme) for scheme in SCHEMES}
+    nothing = not any(by_scheme.values())
     for ax, scheme in zip(axes, SCHEMES):
-        series_of_scheme = _series(rows, scheme)
+        series_of_scheme = by_scheme[scheme]
         ax.set_title(f"({'abc'[SCHEMES.index(scheme)]}) Scheme {scheme}")
         ax.set_xlabel("number of frequencies k")
         if not series_of_scheme:
@@ -142,11 +143,7 @@ def fig9(rows: list[dict], path: Path, floor_M: float | None = None) -> None:
         ax.legend(fontsize=7)
         drawn.append(ax)
     axes[0].set_ylabel("M of TM1 [-] (Eq. 29, lower is better)")
-    values = np.concatenate([np.asarray(ln.get_ydata(), float) for ax in drawn
-                             for ln in ax.get_lines()] or [np.zeros(0)])
-    values = values[np.isfinite(values)]
-    if len(values) and np.all(values > 0):  # a stuck run lies 10-70x above the rest
-        axes[0].set_yscale("log")  # shared by the three panels
+    _log_if_positive(axes[0], *drawn)  # shared y; a stuck run lies 10-70x above the rest
     fig.suptitle("Fig. 9: M per configuration on held-out noise seeds: median and "
                  "interquartile range over runs, dots: single runs; dotted: the search "
                  "draw's median\n(x: the chosen design of some run is infeasible)",
@@ -156,9 +153,12 @@ def fig9(rows: list[dict], path: Path, floor_M: float | None = None) -> None:
     plt.close(fig)
 
 
-def _log_if_positive(ax) -> None:
-    lines = [ln for ln in ax.get_lines() if len(ln.get_ydata())]
-    if lines and all(np.all(np.asarray(ln.get_ydata(), float) > 0) for ln in lines):
+def _log_if_positive(ax, *others) -> None:
+    """Log y on ``ax`` when every finite value drawn on it and ``others`` is positive."""
+    values = np.concatenate([np.asarray(ln.get_ydata(), float) for a in (ax, *others)
+                             for ln in a.get_lines()] or [np.zeros(0)])
+    values = values[np.isfinite(values)]
+    if len(values) and np.all(values > 0):
         ax.set_yscale("log")
 
 
