@@ -228,6 +228,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--paired-with", default=None, metavar="DIR",
                    help="with --realistic: also score only the recordings that DIR (an "
                         "earlier run's --out) scored too, both runs side by side")
+    p.add_argument("--only", default=None, metavar="SEEDS",
+                   help="with --realistic: run only these recordings, comma-separated SEED "
+                        "(both simulators) or BACKEND:SEED, e.g. 40036,foreign:40101")
     p.add_argument("--seed-base", type=int, default=40000,
                    help="first seed of the realistic set (default 40000: fresh seeds)")
     args = p.parse_args(argv)
@@ -237,6 +240,14 @@ def main(argv: list[str] | None = None) -> int:
     if args.seed_base < 0:
         print("error: --seed-base must be >= 0", file=sys.stderr)
         return 2
+    if args.realistic and args.only:
+        from mismatch_realistic import parse_only
+
+        try:
+            parse_only(args.only)
+        except ValueError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
     if args.realistic:
         from mismatch_realistic import main_realistic
 
