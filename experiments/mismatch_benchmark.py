@@ -225,6 +225,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--backend", choices=("kernel", "foreign", "both"), default="both")
     p.add_argument("--summarise", action="store_true",
                    help="with --realistic: score the rows already in --out, simulate nothing")
+    p.add_argument("--rescore", action="store_true",
+                   help="with --realistic --summarise: score the kept reports and truths "
+                        "with today's scorer (the rows file is left as it is)")
     p.add_argument("--paired-with", default=None, metavar="DIR",
                    help="with --realistic: also score only the recordings that DIR (an "
                         "earlier run's --out) scored too, both runs side by side")

@@ -269,7 +269,9 @@ def score(rep: dict, truth: dict) -> dict:
     row["all_named"] = all(e["name"] in names for e in testable)
     row["attributed"] = bool(testable) and row["all_named"] and not extra
     if "snr_nominal" in truth:  # second rate: identifiable by what the nominal fit leaves
-        seen = [e for e, s in zip(truth["effects"], truth["snr_nominal"])
+        # (noise-like effects have no deterministic signature to project: the scaler's SNR)
+        nominal = [v if math.isfinite(v) else s for v, s in zip(truth["snr_nominal"], snr)]
+        seen = [e for e, s in zip(truth["effects"], nominal)
                 if s >= IDENTIFIABLE_SNR and not _untestable(rep, e["name"])]  # fmt: skip
         row["n_identifiable_nominal"] = len(seen)
         row["attributed_nominal"] = bool(seen) and all(e["name"] in names for e in seen) \
@@ -283,6 +285,16 @@ def score(rep: dict, truth: dict) -> dict:
         row["ooc_unexplained_right_channel"] = bool(rep.get("unexplained")) and at_axis \
             and not names  # fmt: skip
     return row
+
+
+def _rescored(row: dict, reports: Path) -> dict:
+    """``row`` scored again from its kept report and truth (the rows file is not changed;
+    a row without them, or a traceback, is returned as it was)."""
+    name = f"{row['backend']}_{row['category']}_{row['seed']}"
+    rep, tru = reports / f"{name}.report.json", reports / f"{name}.truth.json"
+    if "traceback" in row or "error" in row or not (rep.exists() and tru.exists()):
+        return row
+    return {**row, **score(json.loads(rep.read_text()), json.loads(tru.read_text()))}
 
 
 def _untestable(rep: dict, name: str) -> bool:
@@ -388,6 +400,8 @@ def main_realistic(args) -> int:
         print(f"resuming: {len(rows)} recordings already scored", flush=True)
     if getattr(args, "summarise", False):  # score what is there, run nothing
         todo = []
+    if getattr(args, "rescore", False):  # today's scorer on the kept reports and truths
+        rows = [_rescored(r, out / "realistic_reports") for r in rows]
     stream = open(done_path, "a")
     with stream, mp.get_context("spawn").Pool(min(args.jobs, max(len(todo), 1))) as pool:
         for row in pool.imap_unordered(run_case, todo):

@@ -70,3 +70,16 @@ def test_the_second_snr_is_blind_to_what_the_nominal_fit_absorbs(bench):
     seen_ramp = mr.visible_snr(d0, basis, state, ramp)
     assert seen_ramp > 10.0
     assert seen_k < 1e-6 * seen_ramp
+
+
+def test_the_second_rate_keeps_the_scalers_snr_where_no_signature_can_be_projected(bench):
+    """A noise-like effect (NaN second SNR) counts as the scaler saw it; a deterministic
+    one the nominal fit hides (second SNR below 15) leaves the second rate's denominator."""
+    _, mr = bench
+    rep = {"effects": [{"name": "actuation_quantisation", "channel": "all axes"}],
+           "not_identifiable": [], "mismatch_detected": True}  # fmt: skip
+    truth = {"effects": [{"name": "actuation_quantisation"}, {"name": "actuation_gain"}],
+             "snr": [30.0, 40.0], "snr_nominal": [float("nan"), 1.7]}  # fmt: skip
+    row = mr.score(rep, truth)
+    assert not row["attributed"]  # headline: the gain (scaler SNR 40) was not named
+    assert row["n_identifiable_nominal"] == 1 and row["attributed_nominal"]
