@@ -152,15 +152,11 @@ def test_a_loud_glitch_on_the_independent_simulator_is_one_named_event():
     assert abs(rep["effects"][0]["parameters"]["dv"] / inj.magnitude - 1) < 0.01
 
 
-def test_a_clipped_accelerometer_is_unexplained_at_its_axis_not_refused():
-    """Out of catalogue: the x2 accelerometer clipped at 80 % of its range.  The best
-    catalogue fit is a "readout scale" of ~1e4 -- beyond physics; before, the whole
-    recording was refused for it.  Now that explanation is taken out, the rest selected
-    again, and x2 is reported unexplained with no confident name there."""
+def _clipped_x2():
+    """The x2 accelerometer clipped at 80 % of its range (out of catalogue)."""
     import copy
 
     from tmopt.mismatch.fit import data_from_result
-    from tmopt.mismatch.report import build_report
     from tmopt.physics import SimulationConfig, simulate
 
     from .test_diagnose import REF1, REF2
@@ -169,8 +165,59 @@ def test_a_clipped_accelerometer_is_unexplained_at_its_axis_not_refused():
                                                 seed=31)))  # fmt: skip
     lim = 0.8 * np.nanmax(np.abs(d.acc[1]))
     d.acc[1] = np.clip(d.acc[1], -lim, lim)
-    rep = build_report(diagnose(d))
+    return d
+
+
+@pytest.fixture(scope="module")
+def clipped() -> tuple[dict, int]:
+    """Its report, and how many of its steps' tests the selection memo served
+    (diagnose._Evaluations.reused, read from the memo of the diagnosis)."""
+    import tmopt.mismatch.diagnose as dg
+    from tmopt.mismatch.report import build_report
+
+    memos = []
+    init = dg._Evaluations.__init__
+
+    def remember(self, *args):
+        init(self, *args)
+        memos.append(self)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(dg._Evaluations, "__init__", remember)
+        rep = build_report(diagnose(_clipped_x2()))
+    return rep, sum(m.reused for m in memos)
+
+
+def test_a_clipped_accelerometer_is_unexplained_at_its_axis_not_refused(clipped):
+    """Out of catalogue: the x2 accelerometer clipped at 80 % of its range.  The best
+    catalogue fit is a "readout scale" of ~1e4 -- beyond physics; before, the whole
+    recording was refused for it.  Now that explanation is taken out, the rest selected
+    again, and x2 is reported unexplained with no confident name there."""
+    rep = clipped[0]
     assert rep["status"] == "diagnosed", rep.get("reason")
     assert rep["unexplained"] and "x2" in rep["unexplained_at"]["channels"]
     assert not [e for e in rep["effects"] if "x2" in e["channel"] or e["channel"] == "all axes"]
     assert any(n.startswith("not named: ") and "readout_scale" in n for n in rep["notes"])
+
+
+def test_the_rerun_after_a_name_beyond_physics_reuses_tests_and_says_the_same(
+        clipped, monkeypatch):  # fmt: skip
+    """The selection rerun (a name beyond physics taken out) takes the tests of the states
+    it passes through again from the first run's memo (diagnose._Evaluations): the memo
+    must have served something (else it buys nothing) and the report must be exactly the
+    one of testing every state afresh."""
+    import json
+
+    import tmopt.mismatch.diagnose as dg
+    from tmopt.mismatch.report import build_report
+
+    rep, reused = clipped
+    assert reused > 0
+
+    def afresh(self, state, exclude):
+        return dg.evaluate(self.data, self.basis, state, self.settings, exclude)
+
+    monkeypatch.setattr(dg._Evaluations, "__call__", afresh)
+    fresh = build_report(dg.diagnose(_clipped_x2()))
+    assert json.dumps(fresh, sort_keys=True, default=str) == \
+        json.dumps(rep, sort_keys=True, default=str)  # fmt: skip

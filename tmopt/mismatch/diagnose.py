@@ -25,9 +25,10 @@ identification; here with the frequentist twin of their Bayes factors):
 from __future__ import annotations
 
 import copy
+import hashlib
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy import stats
@@ -421,6 +422,13 @@ def evaluate(data: Data, basis: np.ndarray, state: State, settings: Settings,
              exclude: set[str]) -> list[Evaluation]:  # fmt: skip
     """GLR (Wald for the IV group), p-value (with trials factor) and dBIC of every candidate
     against ``state``."""
+    return _holm_adjusted(_tests(data, basis, state, settings, exclude)[0])
+
+
+def _tests(data: Data, basis: np.ndarray, state: State, settings: Settings,
+           exclude: set[str]) -> tuple[list[Evaluation], list[bool]]:  # fmt: skip
+    """:func:`evaluate` before Holm's adjustment, and per evaluation whether ``exclude``
+    applies to it (catalogue candidates; the generic features are always tested)."""
     ctx = Context(data, basis, state.eq_fit.residual, state.eq_noise)
     groups = {
         "equation": _Group(None, state.eq_cols, state.eq_fit, state.eq_noise.whiten),
@@ -441,6 +449,7 @@ def evaluate(data: Data, basis: np.ndarray, state: State, settings: Settings,
             dof = len(cand.columns)
             p = min(1.0, cand.trials * float(stats.chi2.sf(lam, dof)))
             out.append(Evaluation(cand, lam, dof, g.n, p))
+    excludable = [True] * len(out)
     if settings.generic:
         g = groups["equation"]
         for cand in generic.candidates(ctx):
@@ -448,9 +457,60 @@ def evaluate(data: Data, basis: np.ndarray, state: State, settings: Settings,
             dof = len(cand.columns)
             p = min(1.0, cand.trials * float(stats.chi2.sf(lam, dof)))
             out.append(Evaluation(cand, lam, dof, g.n, p))
-    for e, p in zip(out, holm([e.p_value for e in out])):
+            excludable.append(False)
+    return out, excludable
+
+
+def _holm_adjusted(evals: list[Evaluation]) -> list[Evaluation]:
+    for e, p in zip(evals, holm([e.p_value for e in evals])):
         e.p_holm = float(p)
-    return out
+    return evals
+
+
+def _state_key(state: State) -> bytes:
+    """A digest of what :func:`evaluate` reads from a state: its columns (names and
+    values), residuals and noise kind."""
+    h = hashlib.blake2b(digest_size=20)
+    h.update(b"red" if state.red else b"white")
+    for c in state.eq_cols + state.kin_cols:
+        h.update(c.name.encode())
+        h.update(np.ascontiguousarray(c.values).tobytes())
+    h.update(np.ascontiguousarray(state.eq_fit.residual).tobytes())
+    h.update(np.ascontiguousarray(state.kin_fit.residual).tobytes())
+    return h.digest()
+
+
+class _Evaluations:
+    """:func:`evaluate` remembered over one recording's selection reruns: :func:`diagnose`
+    reruns the stepwise selection from the same nominal fit after taking out an
+    explanation beyond physics, and passes through the same states again (the first step
+    always).  A state's stored tests serve any later call whose exclusions include the
+    stored call's (everything it needs was tested); what the new exclusions take out is
+    dropped and Holm's adjustment redone on the rest -- the same list :func:`evaluate`
+    returns.  Candidates are handed out as copies: :func:`_add` renames a chosen one's
+    columns."""
+
+    def __init__(self, data: Data, basis: np.ndarray, settings: Settings):
+        self.data, self.basis, self.settings = data, basis, settings
+        self._memo: dict[bytes, tuple[frozenset, list[Evaluation], list[bool]]] = {}
+        self.reused = 0  # calls served from the memo
+
+    def __call__(self, state: State, exclude: set[str]) -> list[Evaluation]:
+        key = _state_key(state)
+        hit = self._memo.get(key)
+        if hit is None or not hit[0] <= exclude:
+            tests, excludable = _tests(self.data, self.basis, state, self.settings, exclude)
+            self._memo[key] = (frozenset(exclude), [_copied(e) for e in tests], excludable)
+            return _holm_adjusted(tests)
+        _, tests, excludable = hit
+        self.reused += 1
+        kept = [_copied(e) for e, ex in zip(tests, excludable)
+                if not (ex and e.candidate.key in exclude)]  # fmt: skip
+        return _holm_adjusted(kept)
+
+
+def _copied(ev: Evaluation) -> Evaluation:
+    return replace(ev, candidate=copy.copy(ev.candidate))
 
 
 def holm(p: list[float]) -> np.ndarray:
@@ -672,7 +732,8 @@ def _take_best(data, basis, state: State, sig: list[Evaluation], exclude: set[st
 
 
 def _deterministic_instead(data, basis, state: State, evals: list[Evaluation],
-                           settings: Settings, exclude: set[str], n_tests: int):  # fmt: skip
+                           settings: Settings, exclude: set[str], n_tests: int,
+                           tests: _Evaluations):  # fmt: skip
     """When coloured noise is the best explanation, try up to two deterministic effects
     first: a flexible red spectrum can stand in for slow deterministic terms (attitude
     slews, drifts, the tone of a gain error) and, once in, hide them.  Returns the
@@ -684,7 +745,7 @@ def _deterministic_instead(data, basis, state: State, evals: list[Evaluation],
             return None
         pair, trial = _take_best(data, basis, trial, det, ex, settings)
         chosen.append(pair)
-        evals = evaluate(data, basis, trial, settings, ex)
+        evals = tests(trial, ex)
         noise = [e for e in evals if e.candidate.group == "noise"]
         if not noise or n_tests * noise[0].p_value >= settings.alpha:
             return chosen, trial, ex
@@ -853,9 +914,10 @@ def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
     # clipped accelerometer fitted as a "readout scale" of 1e6).  Past MAX_IMPLAUSIBLE
     # of them the recording is refused (a unit error or a swapped channel, issue 20.4).
     beyond: list[dict] = []
+    tests = _Evaluations(data, basis, settings)
     while True:
         selected, steps, state, n_tests = _select(data, basis, before, settings,
-                                                  {b["key"] for b in beyond})  # fmt: skip
+                                                  {b["key"] for b in beyond}, tests)  # fmt: skip
         bad = _implausible(state, selected)
         if bad is None:
             break
@@ -880,16 +942,17 @@ MAX_IMPLAUSIBLE = 2
 
 
 def _select(data: Data, basis: np.ndarray, before: State, settings: Settings,
-            banned: set[str]) -> tuple[list, list, State, int]:
+            banned: set[str], tests: _Evaluations) -> tuple[list, list, State, int]:
     """The stepwise selection and backward pass from the nominal fit ``before``, never
-    choosing a candidate in ``banned``: ``(selected, steps, state, n_tests)``."""
+    choosing a candidate in ``banned``, each step's evaluations from ``tests``:
+    ``(selected, steps, state, n_tests)``."""
     state = before
     selected, steps = [], []
     exclude: set[str] = set(banned)
     # glitch pieces of one event count once; at most twice max_effects selections in all
     while len(events(selected)) < settings.max_effects and \
             len(selected) < 2 * settings.max_effects:  # fmt: skip
-        evals = evaluate(data, basis, state, settings, exclude)
+        evals = tests(state, exclude)
         steps.append(evals)
         sig = _significant(evals, settings.alpha)
         if not sig:
@@ -897,7 +960,7 @@ def _select(data: Data, basis: np.ndarray, before: State, settings: Settings,
         best = max(sig, key=lambda e: e.dbic)
         if best.candidate.group == "noise":
             alt = _deterministic_instead(data, basis, state, evals, settings, exclude,
-                                         len(steps[0]))  # fmt: skip
+                                         len(steps[0]), tests)  # fmt: skip
             if alt is not None:
                 chosen, state, exclude = alt
                 selected += chosen
