@@ -62,6 +62,7 @@ __all__ = [
     "equation_target",
     "nominal_equation_columns",
     "kinematic_target",
+    "switch_series",
     "nominal_kinematic_columns",
     "solve",
     "solve_iv",
@@ -500,6 +501,25 @@ def kinematic_series(data: Data, axis: int) -> np.ndarray:
     n = data.kin_index
     g = float(np.asarray(_kin_coefficients(data)[2], float)[axis])
     return g * (data.acc[axis, n] + data.acc[axis, n - 1])
+
+
+def switch_series(data: Data, axis: int) -> np.ndarray:
+    """``-(h^2/2) (f_n - 2 f_(n-1) + f_(n-2))`` of one axis on the kinematic rows (0 where
+    n - 2 lies in another segment): the kinematic residual per unit ``tau/h`` of a force
+    that switches a time ``tau`` after the sample inside the step.
+
+    Over a step whose force is E on ``[t_n, t_n + s)`` and L after, ``x_(n+1) - x_n - h v_n
+    = (h^2/2) Fbar_n + (E - L) s (h - s)/2`` with ``Fbar_n`` the step's mean force (what
+    the accelerometer reports); the second difference then leaves ``delta_n - delta_(n-1)``
+    over the ZOH relation of :func:`kinematic_target`.  For a delay ``tau = s < h``
+    (E = f_(n-1), L = f_n) that is ``-(s (h - s)/2) (f_n - 2 f_(n-1) + f_(n-2))``, i.e. this
+    series times ``(tau/h)(1 - tau/h)``: first order in ``tau/h`` (docs/mismatch.md 9.8)."""
+    n = data.kin_index
+    f = data.force[axis]
+    d2 = f[n] - 2.0 * f[n - 1] + f[n - 2]
+    first = np.concatenate([np.arange(a + 1, b - 1) == a + 1 for a, b in data.segments])
+    d2[first] = 0.0  # n - 2 is outside the segment
+    return -0.5 * data.dt**2 * d2
 
 
 def nominal_kinematic_columns(data: Data) -> list[Column]:

@@ -16,7 +16,7 @@ from tmopt.mismatch.effects.base import (
     Effect,
     Injection,
 )
-from tmopt.mismatch.fit import Column, axis_column
+from tmopt.mismatch.fit import Column, axis_column, switch_series, tone_instrument
 
 
 class ActuationDelay(Effect):
@@ -62,5 +62,19 @@ class ActuationDelay(Effect):
                     self.name, a, "equation", ["tau"], ["s"], cols, self.plausible,
                     derived={"tau": ("sum", h)},
                     text=self.explanation.format(ch=a, where=TMS[a]),
+                    twin=self._twin(ctx, i) if taps == 1 else None,
                 ))  # fmt: skip
         return out
+
+    def _twin(self, ctx: Context, i: int) -> Column:
+        """The kinematic side of the same ``c1 = tau/h``: the force switches ``tau`` into
+        each step, which the position sees but the step-mean accelerometer does not
+        (:func:`tmopt.mismatch.fit.switch_series`; first order in tau/h, hence on the
+        1-tap variant only).  Instrument: its excitation-tone part (the loop feeds readout
+        noise into the force)."""
+        d = ctx.data
+        arr = np.zeros((4, d.kin_index.size))
+        inst = np.zeros_like(arr)
+        arr[i] = switch_series(d, i)
+        inst[i] = tone_instrument(arr[i], d.time[d.kin_index], d.tones(i))
+        return Column(f"{self.name}[{AXES[i]}]:kin", arr, inst, tuple(d.tones(i)), i)
