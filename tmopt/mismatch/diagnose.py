@@ -418,6 +418,13 @@ def _joint(cand: Candidate, groups: dict) -> float:
     return float(mean**2 * (w1 + w2))
 
 
+def _statistic(cand: Candidate, groups: dict) -> float:
+    """A candidate's GLR in its group, or jointly with its tested twin."""
+    if cand.twin is not None and cand.twin_tested:
+        return _joint(cand, groups)
+    return groups[cand.group].glr(cand.columns)
+
+
 def evaluate(data: Data, basis: np.ndarray, state: State, settings: Settings,
              exclude: set[str]) -> list[Evaluation]:  # fmt: skip
     """GLR (Wald for the IV group), p-value (with trials factor) and dBIC of every candidate
@@ -445,7 +452,7 @@ def _tests(data: Data, basis: np.ndarray, state: State, settings: Settings,
                     out.append(_red_noise_eval(cand, state, data.fs))
                 continue
             g = groups[cand.group]
-            lam = g.glr(cand.columns) if cand.twin is None else _joint(cand, groups)
+            lam = _statistic(cand, groups)
             dof = len(cand.columns)
             p = min(1.0, cand.trials * float(stats.chi2.sf(lam, dof)))
             out.append(Evaluation(cand, lam, dof, g.n, p))
@@ -691,7 +698,7 @@ def _still_needed(data, basis, chosen: list[Evaluation], i: int, settings: Setti
                                   st.kin_fit.residual, data.fs, data.kin_layout),
         }
         g = groups[cand.group]
-        lam = g.glr(cand.columns) if cand.twin is None else _joint(cand, groups)
+        lam = _statistic(cand, groups)
         dof, n, trials = len(cand.columns), g.n, cand.trials
     p = min(1.0, n_tests * trials * float(stats.chi2.sf(lam, dof)))
     return p < settings.alpha and lam - (dof + cand.n_searched) * math.log(n) > 0

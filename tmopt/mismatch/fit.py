@@ -712,8 +712,9 @@ def choose_acc_convention(data: Data, k: np.ndarray) -> tuple[str, dict]:
     for conv in ACC_CONVENTIONS:
         probe = replace(data, acc_convention=conv, notes=[])
         probe.__dict__.pop("_x_eq", None)
-        fit = solve(equation_target(probe, basis), nominal_equation_columns(probe, basis),
-                    lambda v: v)  # fmt: skip
+        cols = nominal_equation_columns(probe, basis) + (
+            _step_mean_columns(probe, basis) if DELAY_NUISANCE else [])
+        fit = solve(equation_target(probe, basis), cols, lambda v: v)
         rss[conv] = float(np.sum(fit.residual**2))
     n_obs = 2 * data.n
     lr = n_obs * math.log(max(rss["held"], 1e-300) / max(rss["mean"], 1e-300))
@@ -729,6 +730,19 @@ def choose_acc_convention(data: Data, k: np.ndarray) -> tuple[str, dict]:
 
 #: |LR| (chi^2_1 units) above which the equation group decides the convention (p ~ 2e-3).
 DECIDE_LR = 10.0
+DELAY_NUISANCE = True
+
+
+def _step_mean_columns(data: Data, basis: np.ndarray) -> list[Column]:
+    """Per axis ``f_(n-1) - f_n`` (0 across a gap): what a sub-sample actuation delay adds
+    to the step-mean force (the 1-tap column of ``effects/actuation_delay.py``)."""
+    out = []
+    for i in range(4):
+        f = data.force[i]
+        d = data.lagged(f, 1) - f
+        d[data.lagged(np.ones_like(f), 1) == 0] = 0.0
+        out.append(Column(f"step_mean_{AXES[i]}", axis_column(basis, i, d)))
+    return out
 
 
 def _kinematic_convention(data: Data, k: np.ndarray) -> tuple[str, dict]:

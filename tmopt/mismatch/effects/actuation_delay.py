@@ -62,16 +62,18 @@ class ActuationDelay(Effect):
                     self.name, a, "equation", ["tau"], ["s"], cols, self.plausible,
                     derived={"tau": ("sum", h)},
                     text=self.explanation.format(ch=a, where=TMS[a]),
-                    twin=self._twin(ctx, i) if taps == 1 else None,
+                    twin=self._twin(ctx, i), twin_tested=taps == 1,
                 ))  # fmt: skip
         return out
 
     def _twin(self, ctx: Context, i: int) -> Column:
         """The kinematic side of the same ``c1 = tau/h``: the force switches ``tau`` into
         each step, which the position sees but the step-mean accelerometer does not
-        (:func:`tmopt.mismatch.fit.switch_series`; first order in tau/h, hence on the
-        1-tap variant only).  Instrument: its excitation-tone part (the loop feeds readout
-        noise into the force)."""
+        (:func:`tmopt.mismatch.fit.switch_series`).  Its coefficient is ``c1`` to first
+        order in tau/h: tested jointly with the 1-tap variant; the 3-tap variant (delays
+        of ~1-3 samples, whose switch falls a whole number of samples later) carries it
+        only as a free kinematic column once selected.  Instrument: its excitation-tone
+        part (the loop feeds readout noise into the force)."""
         d = ctx.data
         arr = np.zeros((4, d.kin_index.size))
         inst = np.zeros_like(arr)

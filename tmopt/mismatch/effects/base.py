@@ -178,6 +178,10 @@ class Candidate:
     derived: dict = field(default_factory=dict)  # how to report a combination of coefs
     text: str = ""
     twin: Column | None = None  # the same parameter's prediction in the kinematic group
+    #: Is the twin part of the candidate's test (:func:`~tmopt.mismatch.diagnose._joint`:
+    #: one parameter seen by both groups)?  False: the twin only joins the kinematic fit
+    #: once the candidate is selected (a consequence with its own free coefficient).
+    twin_tested: bool = True
     n_searched: int = 0  # parameters found by search (counted in the BIC penalty)
     #: Axis whose motion drives the effect (a coupling's source): identifiability calls
     #: it "not excited" when that axis has no excitation tones -- its readout is then
