@@ -700,7 +700,12 @@ def choose_acc_convention(data: Data, k: np.ndarray) -> tuple[str, dict]:
     differ in Eq. 10 by the stiffness term ``k (r_n - r̄_n) ~ -k v h/2``: the nominal
     least-squares fit of Eq. 10 with ``x_n`` or ``(x_n + x_{n+1})/2`` is compared by the
     likelihood ratio ``LR = n log(RSS_held / RSS_mean)``.  That term is in step with the
-    motion, and a wrong convention makes it look like an actuation delay.  When
+    motion, and a wrong convention makes it look like an actuation delay -- and a delay
+    can make a wrong convention look right.  So the LR is first taken with the 1-tap
+    delay columns (:func:`_step_mean_columns`) as nuisance in both fits (what a delay
+    cannot explain) and decides when it reaches ``DECIDE_LR``; otherwise the LR without
+    them decides as before (the delay-free test loses power where the controller makes
+    the two terms alike; docs/mismatch.md 9.8).  When
     ``|LR| < DECIDE_LR`` the data cannot tell (the difference is below the noise) and the
     kinematic evidence decides (:func:`_kinematic_convention`); failing that, ``held``.
     The recording's ``acc_sampling`` attribute, when present, decides instead.
@@ -708,21 +713,26 @@ def choose_acc_convention(data: Data, k: np.ndarray) -> tuple[str, dict]:
     if data.usage.get("acc_convention_from") == "attribute":
         return data.acc_convention, {"from": "attribute"}
     basis = null_basis(data.geometry)
-    rss = {}
-    for conv in ACC_CONVENTIONS:
-        probe = replace(data, acc_convention=conv, notes=[])
-        probe.__dict__.pop("_x_eq", None)
-        cols = nominal_equation_columns(probe, basis) + (
-            _step_mean_columns(probe, basis) if DELAY_NUISANCE else [])
-        fit = solve(equation_target(probe, basis), cols, lambda v: v)
-        rss[conv] = float(np.sum(fit.residual**2))
     n_obs = 2 * data.n
-    lr = n_obs * math.log(max(rss["held"], 1e-300) / max(rss["mean"], 1e-300))
-    info = {"equation_lr_mean_vs_held": lr}
-    if abs(lr) >= DECIDE_LR:
-        info["decided"] = True
-        info["by"] = "equation group"
-        return ("mean" if lr > 0 else "held"), info
+    info: dict = {}
+    for key, delay in (("equation_lr_mean_vs_held_delay_free", True),
+                       ("equation_lr_mean_vs_held", False)):  # fmt: skip
+        if delay and not DELAY_NUISANCE:
+            continue
+        rss = {}
+        for conv in ACC_CONVENTIONS:
+            probe = replace(data, acc_convention=conv, notes=[])
+            probe.__dict__.pop("_x_eq", None)
+            cols = nominal_equation_columns(probe, basis)
+            cols += _step_mean_columns(probe, basis) if delay else []
+            fit = solve(equation_target(probe, basis), cols, lambda v: v)
+            rss[conv] = float(np.sum(fit.residual**2))
+        lr = n_obs * math.log(max(rss["held"], 1e-300) / max(rss["mean"], 1e-300))
+        info[key] = lr
+        if abs(lr) >= DECIDE_LR:
+            info["decided"] = True
+            info["by"] = "equation group" + (" (delay columns as nuisance)" if delay else "")
+            return ("mean" if lr > 0 else "held"), info
     conv, kin = _kinematic_convention(data, k)
     info.update(kin)
     return conv, info
@@ -730,6 +740,7 @@ def choose_acc_convention(data: Data, k: np.ndarray) -> tuple[str, dict]:
 
 #: |LR| (chi^2_1 units) above which the equation group decides the convention (p ~ 2e-3).
 DECIDE_LR = 10.0
+#: Try the convention's LR with the delay columns as nuisance first (False: r7's test).
 DELAY_NUISANCE = True
 
 

@@ -27,6 +27,9 @@ class ActuationDelay(Effect):
     force, ``f(t - tau) - f(t) = sum_j c_j (f_{n-j} - f_{n-j+1})`` with group delay
     ``tau = h sum_j c_j`` (an FIR delay with unit DC gain); 1 tap is the first-order
     ``-tau f'`` (Taylor), 3 taps reach ~3 samples.  Per tone: residual/motion ~ i w^3 tau.
+    The positions also see *when* in the step the force switched: the kinematic twin
+    ``(tau/h)(1 - tau/h) x`` :func:`~tmopt.mismatch.fit.switch_series` (docs/mismatch.md
+    9.8), tested jointly with the 1-tap variant.
     """
 
     name = "actuation_delay"
