@@ -350,3 +350,32 @@ def test_an_argument_whose_earlier_behaviour_is_not_its_default_reads_as_that_va
     runs = {r.name: r for r in discover_runs(tmp_path)}
     assert runs["old"].value("algorithm.gp_guard_max_iter") == "None"
     assert runs["capped"].value("algorithm.gp_guard_max_iter") == "10"
+
+
+def test_runs_whose_configurations_differ_where_no_override_says_so_are_not_pooled(tmp_path):
+    # Two qLogNEHVI sweeps with the same overrides, made before and after the default of
+    # gp_guard_max_iter changed (null, then 5): two configurations, two rows -- before,
+    # collect averaged them as one setting (15 "runs" of 10 + 5).
+    for seed in range(3):
+        for name, cap in (("old", "absent"), ("new", 5)):
+            path = _run(tmp_path, f"{name}{seed}", {"seed": seed}, algorithm="qlognehvi",
+                        seed=seed, m=3.0 if cap == 5 else 9.0)
+            config = json.loads((path / "config.yaml").read_text())
+            config["algorithm"] = {"_target_": "tmopt.algorithms.qlognehvi.QLogNEHVI"}
+            if cap != "absent":
+                config["algorithm"]["gp_guard_max_iter"] = cap
+            (path / "config.yaml").write_text(json.dumps(config))
+    runs = discover_runs(tmp_path)
+    assert "algorithm.gp_guard_max_iter" in setting_keys(runs)
+    out = tmp_path / "out"
+    collect(tmp_path, out, fig10=False)
+    with open(out / "table3.csv") as fh:
+        rows = {r["algorithm.gp_guard_max_iter"]: r for r in csv.DictReader(fh)}
+    assert set(rows) == {"None", "5"}
+    assert rows["None"]["n_complete"] == rows["5"]["n_complete"] == "3"
+
+
+def test_seeds_alone_do_not_make_a_setting(tmp_path):
+    for seed in range(3):
+        _run(tmp_path, f"r{seed}", {"seed": seed}, seed=seed)
+    assert setting_keys(discover_runs(tmp_path)) == ["problem", "algorithm"]

@@ -86,3 +86,18 @@ def test_fig9_draws_medians_with_quartiles_every_run_and_the_floor(monkeypatch, 
     assert [tuple(ln.get_xdata()) for ln in b.get_lines() if ln.get_label() == "_infeasible"] \
         == [(2.0,)]
     assert b.get_yscale() == "log"  # shared: every value is positive
+
+
+def test_settings_at_one_k_are_left_out_of_figs_8_9_and_the_panel_says_why(monkeypatch,
+                                                                          tmp_path):
+    # Table 3's algorithms (k = 3 only) collected beside a sweep over k: only the sweep's
+    # curve is drawn; a scheme with nothing but single-k settings says so
+    rows = [_scheme_row("B", 1, "fixed", [6.0], [5.0]), _scheme_row("B", 2, "fixed", [8.0], [6.0]),
+            _scheme_row("B", 3, "information", [7.0], [7.0]),
+            _scheme_row("A", 3, "fixed", [9.0], [9.0])]
+    axes = _axes(monkeypatch, lambda: figures.fig9(rows, tmp_path / "f9.png"))
+    a, b, _ = axes
+    assert [t.get_text() for t in a.texts] == [
+        "scheme A: each setting at one k (3),\nno curve against k (table3.md lists them)"]
+    assert {c.get_label() for c in b.containers} == {"problem.noise=fixed, held-out",
+                                                    "problem.noise=fixed, search draw"}

@@ -39,7 +39,20 @@ def _series(rows: list[dict], scheme: str) -> dict[str, list[dict]]:
         out.setdefault(name, []).append(row)
     for series in out.values():
         series.sort(key=lambda r: int(r["setting"]["problem.n_freq"]))
-    return out
+    # a setting run at one k is a point, not a curve against k: collected beside a sweep
+    # over k (Table 3's ten algorithms at k = 3), it would bury the curves under a legend
+    # entry each; table3.md is its view
+    return {n: s for n, s in out.items() if len({r["setting"]["problem.n_freq"] for r in s}) > 1}
+
+
+def _no_curve(rows: list[dict], scheme: str) -> str:
+    """What an empty panel of ``scheme`` says: no runs, or runs at one k per setting."""
+    ks = sorted({int(r["setting"]["problem.n_freq"]) for r in rows
+                 if r["setting"].get("scheme") == scheme})  # fmt: skip
+    if not ks:
+        return f"no runs of scheme {scheme}"
+    return (f"scheme {scheme}: each setting at one k ({', '.join(map(str, ks))}),\n"
+            "no curve against k (table3.md lists them)")
 
 
 def _quartiles(row: dict, key: str) -> tuple[float, float, float, np.ndarray]:
@@ -90,7 +103,7 @@ def fig8(rows: list[dict], path: Path) -> None:
         series_of_scheme = _series(rows, scheme)
         ax.set_title(f"({'abc'[SCHEMES.index(scheme)]}) Scheme {scheme}")
         if not series_of_scheme:
-            note_nothing_to_draw(ax, f"no runs of scheme {scheme}")
+            note_nothing_to_draw(ax, _no_curve(rows, scheme))
             ax2.set_yticks([])
             continue
         shifts = _shifts(len(series_of_scheme))
@@ -121,14 +134,13 @@ def fig9(rows: list[dict], path: Path, floor_M: float | None = None) -> None:
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.6), sharey=True)
     drawn = []
     by_scheme = {scheme: _series(rows, scheme) for scheme in SCHEMES}
-    nothing = not any(by_scheme.values())
     for ax, scheme in zip(axes, SCHEMES):
         series_of_scheme = by_scheme[scheme]
         ax.set_title(f"({'abc'[SCHEMES.index(scheme)]}) Scheme {scheme}")
         ax.set_xlabel("number of frequencies k")
         if not series_of_scheme:
-            note_nothing_to_draw(ax, "no stiffness runs with a scheme and k to draw"
-                                 if nothing else f"no runs of scheme {scheme}")
+            note_nothing_to_draw(ax, _no_curve(rows, scheme) if rows
+                                 else "no stiffness runs with a scheme and k to draw")
             continue
         shifts = _shifts(len(series_of_scheme))
         for i, (name, series) in enumerate(series_of_scheme.items()):

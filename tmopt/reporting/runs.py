@@ -230,8 +230,36 @@ def setting_keys(runs: list[RunRecord]) -> list[str]:
     for run in runs:
         keys.update(k for k in run.overrides if k not in IGNORED_KEYS)
     varying = [k for k in keys if k in ALWAYS_KEYS or len({r.value(k) for r in runs}) > 1]
+    varying += [k for k in _unnamed_differences(runs, varying) if k not in varying]
     order = {k: i for i, k in enumerate(GROUP_KEYS)}
     return sorted(varying, key=lambda k: (order.get(k, len(order)), k))
+
+
+def _unnamed_differences(runs: list[RunRecord], keys: list[str]) -> list[str]:
+    """Configuration keys no override names that still differ between runs of one setting:
+    a default changed between two sweeps (qLogNEHVI's ``gp_guard_max_iter``, null then 5)
+    leaves both sweeps' folders with the same overrides, and pooling them would average two
+    configurations as one.  Values are effective values (:meth:`RunRecord.value`: an
+    argument added later reads as what the older run ran with)."""
+    out: set[str] = set()
+    for group in group_runs(runs, keys).values():
+        if len(group) < 2:
+            continue
+        leaves = set().union(*(_leaves(r.config) for r in group))
+        out.update(k for k in leaves
+                   if k.split(".")[0] not in IGNORED_KEYS and k.split(".")[0] != "hydra"
+                   and len({r.value(k) for r in group}) > 1)  # fmt: skip
+    return sorted(out)
+
+
+def _leaves(node: object, prefix: str = "") -> set[str]:
+    """Dotted keys of a nested configuration's leaves (a list is one leaf)."""
+    if not isinstance(node, dict):
+        return {prefix} if prefix else set()
+    out: set[str] = set()
+    for k, v in node.items():
+        out |= _leaves(v, f"{prefix}.{k}" if prefix else str(k))
+    return out
 
 
 def setting_of(run: RunRecord, keys: list[str]) -> tuple[tuple[str, str], ...]:
