@@ -503,7 +503,7 @@ def kinematic_series(data: Data, axis: int) -> np.ndarray:
     return g * (data.acc[axis, n] + data.acc[axis, n - 1])
 
 
-def switch_series(data: Data, axis: int) -> np.ndarray:
+def switch_series(data: Data, axis: int, lag: int = 0) -> np.ndarray:
     """``-(h^2/2) (f_n - 2 f_(n-1) + f_(n-2))`` of one axis on the kinematic rows (0 where
     n - 2 lies in another segment): the kinematic residual per unit ``tau/h`` of a force
     that switches a time ``tau`` after the sample inside the step.
@@ -513,9 +513,16 @@ def switch_series(data: Data, axis: int) -> np.ndarray:
     the accelerometer reports); the second difference then leaves ``delta_n - delta_(n-1)``
     over the ZOH relation of :func:`kinematic_target`.  For a delay ``tau = s < h``
     (E = f_(n-1), L = f_n) that is ``-(s (h - s)/2) (f_n - 2 f_(n-1) + f_(n-2))``, i.e. this
-    series times ``(tau/h)(1 - tau/h)``: first order in ``tau/h`` (docs/mismatch.md 9.8)."""
+    series times ``(tau/h)(1 - tau/h)``: first order in ``tau/h`` (docs/mismatch.md 9.8).
+    ``lag = m``: the same for ``tau = m h + s`` (E = f_(n-m-1), L = f_(n-m)), 0 where
+    n - m - 2 lies in another segment."""
     n = data.kin_index
     f = data.force[axis]
+    if lag:
+        g = data.lagged(f, lag)
+        d2 = g[n] - 2.0 * g[n - 1] + g[n - 2]
+        d2[data.lagged(np.ones_like(f), lag + 2)[n] == 0] = 0.0
+        return -0.5 * data.dt**2 * d2
     d2 = f[n] - 2.0 * f[n - 1] + f[n - 2]
     first = np.concatenate([np.arange(a + 1, b - 1) == a + 1 for a, b in data.segments])
     d2[first] = 0.0  # n - 2 is outside the segment

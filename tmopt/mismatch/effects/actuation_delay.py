@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -66,6 +67,7 @@ class ActuationDelay(Effect):
                     derived={"tau": ("sum", h)},
                     text=self.explanation.format(ch=a, where=TMS[a]),
                     twin=self._twin(ctx, i), twin_tested=taps == 1,
+                    twin_tie=_switch_term(ctx.data, i),
                 ))  # fmt: skip
         return out
 
@@ -74,12 +76,30 @@ class ActuationDelay(Effect):
         each step, which the position sees but the step-mean accelerometer does not
         (:func:`tmopt.mismatch.fit.switch_series`).  Its coefficient is ``c1`` to first
         order in tau/h: tested jointly with the 1-tap variant; the 3-tap variant (delays
-        of ~1-3 samples, whose switch falls a whole number of samples later) carries it
-        only as a free kinematic column once selected.  Instrument: its excitation-tone
-        part (the loop feeds readout noise into the force)."""
+        of ~1-3 samples, whose switch falls a whole number of samples later) is tested on
+        the equation alone.  Either, once selected, ties the twin's coefficient to its
+        own (:func:`_switch_term`).  Instrument: its excitation-tone part (the loop feeds
+        readout noise into the force)."""
         d = ctx.data
         arr = np.zeros((4, d.kin_index.size))
         inst = np.zeros_like(arr)
         arr[i] = switch_series(d, i)
         inst[i] = tone_instrument(arr[i], d.time[d.kin_index], d.tones(i))
         return Column(f"{self.name}[{AXES[i]}]:kin", arr, inst, tuple(d.tones(i)), i)
+
+
+def _switch_term(data, i: int):
+    """The twin tied to the delay: ``p = tau/h = sum c_j`` -> the kinematic residual of a
+    delay ``tau = m h + s`` (``m`` whole samples, ``0 <= s < h``), ``(s/h)(1 - s/h)`` x
+    the switch series ``m`` samples later (exact; docs/mismatch.md 9.8).  Below one
+    sample (every ``p < 1``, a negative noise estimate included) ``p (1 - p) S``."""
+    base = switch_series(data, i)
+
+    def term(p: float) -> np.ndarray:
+        m = int(math.floor(p)) if p >= 1.0 else 0
+        s = p - m
+        out = np.zeros((4, data.kin_index.size))
+        out[i] = s * (1.0 - s) * (base if m == 0 else switch_series(data, i, m))
+        return out
+
+    return term

@@ -182,6 +182,11 @@ class Candidate:
     #: one parameter seen by both groups)?  False: the twin only joins the kinematic fit
     #: once the candidate is selected (a consequence with its own free coefficient).
     twin_tested: bool = True
+    #: Set: the twin's kinematic coefficient is *tied* to the equation's parameter, not
+    #: free.  Maps ``p``, the sum of the candidate's equation coefficients, to the twin's
+    #: kinematic term (4, rows); once selected that term at the joint estimate of ``p``
+    #: is an offset of the kinematic target (``diagnose._tied_offset``), not a column.
+    twin_tie: Callable[[float], np.ndarray] | None = None
     n_searched: int = 0  # parameters found by search (counted in the BIC penalty)
     #: Axis whose motion drives the effect (a coupling's source): identifiability calls
     #: it "not excited" when that axis has no excitation tones -- its readout is then
