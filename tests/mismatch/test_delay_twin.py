@@ -6,7 +6,9 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import pytest
 
+import tmopt.mismatch.diagnose as diagnose_module
 from tmopt.mismatch.diagnose import diagnose, effect_parameters, prepare
 from tmopt.mismatch.effects import Injection
 from tmopt.mismatch.fit import data_from_recording, kinematic_target, switch_series
@@ -61,3 +63,27 @@ def test_a_clean_foreign_recording_gains_no_delay_name():
         dg = diagnose(data_from_recording(rec))
         assert not [ev for ev, _ in dg.selected if ev.candidate.effect == "actuation_delay"]
         assert not dg.selected
+
+
+@pytest.mark.parametrize("tied", [pytest.param(False, marks=pytest.mark.slow), True])
+def test_a_low_rate_foreign_delay_is_not_taken_over_by_a_gain(monkeypatch, tied):
+    """Dev seed 16014 (8 Hz, one slow tone on x2; the analogue of benchmark f40038): the
+    switch series' tone content (~w^2 h^2) is a weak instrument.  With the twin's kinematic
+    coefficient free (round 8) the delay is selected, then readout_scale[acc:x2], then an
+    actuation gain at dBIC ~1e4 that the backward pass keeps alone -- a wrong name.  Tied
+    to the equation's tau/h (its term at the joint estimate taken out of the kinematic
+    target) the delay is named alone, tau within 3 sigma."""
+    monkeypatch.setattr(diagnose_module, "TIE_TWINS", tied)
+    seed = 16014
+    sc = replace(draw_scenario(seed, "foreign"), gaps=(), glitches=())
+    inj, snr = scale_to_snr(sc, Injection("actuation_delay", 2.2e-4, "x2"), 60.0, seed,
+                            "foreign")  # fmt: skip
+    rec, _ = realistic_recording(sc, [inj], (), seed, "foreign")
+    dg = diagnose(data_from_recording(rec))
+    keys = [ev.candidate.key for ev, _ in dg.selected]
+    if not tied:
+        assert keys == ["actuation_gain[x2]"]  # the failure the tie removes
+        return
+    assert keys == ["actuation_delay[x2]"] and not dg.unexplained
+    tau, sigma = effect_parameters(dg.after, dg.selected[0][0].candidate)["tau"]
+    assert abs(tau - inj.magnitude) < 3 * sigma
