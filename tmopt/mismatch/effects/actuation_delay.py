@@ -30,7 +30,8 @@ class ActuationDelay(Effect):
     ``-tau f'`` (Taylor), 3 taps reach ~3 samples.  Per tone: residual/motion ~ i w^3 tau.
     The positions also see *when* in the step the force switched: the kinematic twin
     ``(tau/h)(1 - tau/h) x`` :func:`~tmopt.mismatch.fit.switch_series` (docs/mismatch.md
-    9.8), tested jointly with the 1-tap variant.
+    9.8), tested jointly with the 1-tap variant; once selected, its coefficient is tied to
+    the delay's own (not fitted freely).
     """
 
     name = "actuation_delay"

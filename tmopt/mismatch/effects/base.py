@@ -180,7 +180,7 @@ class Candidate:
     twin: Column | None = None  # the same parameter's prediction in the kinematic group
     #: Is the twin part of the candidate's test (:func:`~tmopt.mismatch.diagnose._joint`:
     #: one parameter seen by both groups)?  False: the twin only joins the kinematic fit
-    #: once the candidate is selected (a consequence with its own free coefficient).
+    #: once the candidate is selected (with its own free coefficient, unless ``twin_tie``).
     twin_tested: bool = True
     #: Set: the twin's kinematic coefficient is *tied* to the equation's parameter, not
     #: free.  Maps ``p``, the sum of the candidate's equation coefficients, to the twin's
