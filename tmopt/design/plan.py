@@ -108,11 +108,12 @@ NOTHING = ("the diagnosis flags no effect parameter as not identifiable and no n
 def ambiguous_of(dg) -> list[dict]:
     """The report's ``ambiguous`` entries of a diagnosis (a report's own list when ``dg``
     was read from a report.json)."""
-    if hasattr(dg, "ambiguous"):
-        return list(dg.ambiguous)
+    from tmopt.mismatch.diagnose import Diagnosis
     from tmopt.mismatch.report import ambiguous_entries
 
-    return ambiguous_entries(dg)
+    if isinstance(dg, Diagnosis):
+        return ambiguous_entries(dg)
+    return list(getattr(dg, "ambiguous", []))
 
 
 def ambiguous_targets(entries: list[dict], data: Data, basis: np.ndarray,
