@@ -18,7 +18,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from tmopt.design.plan import plan_from_diagnosis
+from tmopt.design.plan import ambiguous_of, plan_from_diagnosis
 from tmopt.design.problem import DesignSpace
 from tmopt.mismatch.diagnose import diagnose
 from tmopt.mismatch.effects import Injection
@@ -44,7 +44,7 @@ def one(seed: int, args: argparse.Namespace) -> str:
     dg = diagnose(data_from_recording(rec))
     rep = build_report(dg)
     first = rep["conclusion"]
-    if not any(a["name"] == "cubic_stiffness" and a["channel"] == "x1" for a in rep["ambiguous"]):
+    if not any(e["name"] == "cubic_stiffness" and e["channel"] == "x1" for e in ambiguous_of(dg)):
         return f"| {seed} | {first} | - | - | - | (not an ambiguous cubic: no design) | - |"
     space = DesignSpace(axes=("x1",), duration=(args.duration, args.duration))
     plan = plan_from_diagnosis(dg, space, effects=[KEY], algorithm="nsga2",

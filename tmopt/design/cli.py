@@ -153,7 +153,8 @@ def _diagnosis_from_report(path: Path):
     if not any(r.get("reason") in REASONS and r.get("plausible") is not None
                for r in rep["not_identifiable"]) and not any(  # fmt: skip
             r.get("feature") or r.get("name") in EFFECTS
-            for a in rep.get("ambiguous", []) for r in a.get("rivals", [])):  # fmt: skip
+            for a in rep.get("ambiguous", []) for r in a.get("rivals", [])) and not any(
+            f.get("alternatives") for f in rep.get("features", [])):  # fmt: skip
         raise ValueError(NOTHING)
     src = Path(rep["source"])
     if not src.is_absolute() and not src.exists():
@@ -168,7 +169,8 @@ def _diagnosis_from_report(path: Path):
     steps = [evaluate(data, basis, state, settings, set())]
     dg = SimpleNamespace(data=data, basis=basis, after=state, settings=settings,
                          not_identifiable=rep["not_identifiable"], steps=steps,
-                         ambiguous=rep.get("ambiguous", []))  # fmt: skip
+                         ambiguous=rep.get("ambiguous", []),
+                         features=rep.get("features", []))  # fmt: skip
     return dg, [f"noise level from a nominal fit of {src} (the report's recording)"]
 
 

@@ -107,13 +107,47 @@ NOTHING = ("the diagnosis flags no effect parameter as not identifiable and no n
 
 def ambiguous_of(dg) -> list[dict]:
     """The report's ``ambiguous`` entries of a diagnosis (a report's own list when ``dg``
-    was read from a report.json)."""
+    was read from a report.json), and one for each catalogue name within the band of a
+    selected unnamed feature (:func:`feature_rivalries`)."""
     from tmopt.mismatch.diagnose import Diagnosis
     from tmopt.mismatch.report import ambiguous_entries
 
     if isinstance(dg, Diagnosis):
-        return ambiguous_entries(dg)
-    return list(getattr(dg, "ambiguous", []))
+        rep = {"ambiguous": ambiguous_entries(dg), "features": [
+            {"feature": ev.candidate.fixed.get("feature"), "channel": ev.candidate.channel,
+             "alternatives": [{"name": a.candidate.effect, "channel": a.candidate.channel}
+                              for a in alts if a.candidate.effect in EFFECTS]}
+            for ev, alts in dg.features]}  # fmt: skip
+    else:
+        rep = {"ambiguous": getattr(dg, "ambiguous", []), "features": getattr(dg, "features", [])}
+    return list(rep["ambiguous"]) + feature_rivalries(rep["features"], dg)
+
+
+def feature_rivalries(features: list[dict], dg) -> list[dict]:
+    """Ambiguous entries for the catalogue names within the band of a selected unnamed
+    feature (report ``features[i].alternatives``): the name, its rival the feature, and
+    its size as the recording shows it -- the name fitted alone with the nominal model
+    (the feature took its place in the diagnosis, so it has no fitted value there)."""
+    from tmopt.mismatch.diagnose import effect_parameters, fit_state
+    from tmopt.mismatch.generic import GENERIC
+
+    out = []
+    for f in features:
+        for a in f.get("alternatives", []):
+            if a.get("name") not in EFFECTS or f.get("feature") is None:
+                continue
+            try:
+                cand = candidate_for(Target(a["name"], a["channel"], 1.0), dg.data, dg.basis)
+            except ValueError:
+                continue
+            if cand.group != "equation":
+                continue
+            state = fit_state(dg.data, dg.basis, cand.columns, [], False, dg.settings)
+            params = {k: v for k, (v, _) in effect_parameters(state, cand).items()}
+            out.append({"name": a["name"], "channel": a["channel"], "parameters": params,
+                        "rivals": [{"name": GENERIC, "channel": f["channel"],
+                                    "feature": f["feature"]}]})  # fmt: skip
+    return out
 
 
 def ambiguous_targets(entries: list[dict], data: Data, basis: np.ndarray,
@@ -298,7 +332,8 @@ def plan_from_diagnosis(dg, space: DesignSpace | None = None, effects: list[str]
                         **solve) -> Plan:  # fmt: skip
     """The next excitation for a :class:`~tmopt.mismatch.diagnose.Diagnosis`."""
     data, basis = dg.data, dg.basis
-    amb = ambiguous_targets(ambiguous_of(dg), data, basis, effects)
+    amb = list({t.key: t for t in ambiguous_targets(ambiguous_of(dg), data, basis,
+                                                   effects)}.values())  # one per key
     keys = {t.key for t in amb}  # an ambiguous name's target replaces any other of its key
     targets = [t for t in targets_from(dg.not_identifiable, data, basis, effects)
                if t.key not in keys] + amb  # fmt: skip

@@ -267,7 +267,8 @@ def build_report(dg: Diagnosis) -> dict:
         "locations_unexplained": dg.locations_after.as_dict(),
         "effects": [e for e in entries if not e["rivals"]],
         "ambiguous": [e for e in entries if e["rivals"]],
-        "features": [_feature_entry(dg, ev) for ev, _ in dg.features],
+        "features": [{**_feature_entry(dg, ev), **_named_alternatives(alts)}
+                     for ev, alts in dg.features],  # fmt: skip
         "not_identifiable": _not_identifiable(dg),
         "fit": {"before": before, "after": after},
         "stiffness": {k: _stiff(s) for k, s in (("before", dg.before), ("after", dg.after))},
@@ -490,3 +491,11 @@ def ambiguous_entries(dg: Diagnosis) -> list[dict]:
     if dg.refused is not None:
         return []
     return [e for e in _event_entries(dg) if e["rivals"]]
+
+
+def _named_alternatives(alts) -> dict:
+    """``{"alternatives": [...]}``: the catalogue names within the ambiguity band of a
+    selected unnamed feature (a true cubic selected as ``x|x|``), else nothing."""
+    named = [{"name": a.candidate.effect, "channel": a.candidate.channel, "delta_bic": a.dbic}
+             for a in alts if a.candidate.effect in _NEEDS]  # fmt: skip
+    return {"alternatives": named} if named else {}
