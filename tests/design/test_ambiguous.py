@@ -52,6 +52,21 @@ def test_a_report_with_nothing_to_separate_says_so_in_one_line(tmp_path, capsys,
     assert not (tmp_path / "o").exists()
 
 
+
+def test_a_report_whose_recording_is_not_a_file_says_so_in_one_line(tmp_path, capsys):
+    """A report of a recording diagnosed in memory (source ``<memory>``) has no recording
+    to take the noise level from: one line naming ``source``, not a reader's error about
+    a file extension."""
+    rep = {"source": "<memory>", "not_identifiable": [
+        {"name": "stiffness_cross_coupling", "channel": "x1<-y1", "reason": "not excited",
+         "plausible": 3e-7}]}  # fmt: skip
+    path = tmp_path / "report.json"
+    path.write_text(json.dumps(rep))
+    assert cli.main([str(path), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "source '<memory>'" in err[0] and "not a file" in err[0]
+    assert not (tmp_path / "o").exists()
+
 @pytest.mark.slow
 @pytest.mark.parametrize("seed, reported", [(11, "ambiguous"), (13, "feature")])
 def test_an_ambiguous_cubic_is_separated_by_the_design(tmp_path, seed, reported):

@@ -159,6 +159,9 @@ def _diagnosis_from_report(path: Path):
     src = Path(rep["source"])
     if not src.is_absolute() and not src.exists():
         src = path.parent / src
+    if not src.is_file():  # e.g. "<memory>": a diagnosis of a recording never written
+        raise ValueError(f"{path}: its recording (source {rep['source']!r}) is not a file "
+                         "here; give the recording (.h5, .hdf5, .csv) instead of the report")
     data = align_force_timing(data_from_recording(read_recording(src)))
     basis = null_basis(data.geometry)
     given = rep.get("settings", {})
