@@ -235,6 +235,11 @@ def plot(plan: Plan, rep: dict, path: Path) -> None:
     axes[2].bar(pos + 0.2, np.minimum(ratio_a, cap), 0.4, label="proposed")
     axes[2].axhline(1.0, color="k", ls="--", lw=0.8, label="detectable below")
     axes[2].set_yscale("log")
+    # matplotlib's log limits start at the smallest bar's top, which hid a lone target's
+    # "proposed" bar (z sigma / plausible 0.017) under the axis: keep a decade below it
+    shown = np.minimum(np.r_[ratio_b, ratio_a, 1.0], cap)
+    axes[2].set_ylim(shown[shown > 0].min() / 10, shown.max() * 3)
+    axes[2].set_xlim(-0.7, len(names) - 0.3)
     axes[2].set_xticks(pos, names, fontsize=6, rotation=60, ha="right")
     axes[2].set_ylabel("z sigma / plausible (bars capped at 1e12)")
     axes[2].legend(fontsize=8)
