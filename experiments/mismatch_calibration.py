@@ -66,12 +66,20 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--realistic", action="store_true",
                    help="flight-like clean recordings of both simulators (issue 26; "
                         "calibration seeds 20000 onwards)")
+    p.add_argument("--joint", action="store_true",
+                   help="with --realistic: the joint stage's statistics under the alternative's "
+                        "noise and its per-family inflation (tmopt/mismatch/joint.py; resumable)")
     args = p.parse_args(argv)
     if args.n < 1 or args.jobs < 1:
         print("error: --n and --jobs must be >= 1", file=sys.stderr)
         return 2
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    if args.joint and not args.realistic:
+        print("error: --joint needs --realistic", file=sys.stderr)
+        return 2
+    if args.joint:
+        return _joint(args, out)
     if args.realistic:
         return _realistic(args, out)
     jobs = [(5000 + i, SETTINGS[i % len(SETTINGS)]) for i in range(args.n)]
@@ -136,6 +144,122 @@ def _realistic(args, out: Path) -> int:
     (out / "realistic_summary.md").write_text(text)
     print(text)
     return 0
+
+
+
+def joint_job(job: tuple[str, int]) -> dict:
+    """One clean realistic recording: the tool without its joint stage, then the joint
+    stage's re-tests of what it left out (tmopt.mismatch.joint.alt_statistics), raw."""
+    import time
+
+    from tmopt.mismatch import joint
+    from tmopt.mismatch.diagnose import Settings, diagnose, evaluate
+    from tmopt.mismatch.fit import data_from_recording
+    from tmopt.mismatch.realistic import draw_scenario, realistic_recording
+
+    backend, seed = job
+    t0 = time.process_time()
+    rec, _ = realistic_recording(draw_scenario(seed, backend), (), (), seed, backend)
+    settings = Settings(joint=False)
+    dg = diagnose(data_from_recording(rec), settings)
+    row = {"backend": backend, "seed": seed, "refused": dg.refused or "", "tests": []}
+    if dg.refused:
+        return row
+    chosen = {ev.candidate.key for ev, _ in dg.selected}
+    evals = evaluate(dg.data, dg.basis, dg.after, settings, chosen)
+    tests = joint.alt_statistics(dg.data, dg.basis, dg.after, evals, settings,
+                                 pairs=not dg.selected)  # fmt: skip
+    row.update(selected=sorted(chosen), detected=bool(dg.mismatch_detected),
+               cpu_s=time.process_time() - t0,
+               tests=[{"keys": t.keys, "family": t.family, "glr_null": t.glr_null,
+                       "glr_alt": t.glr_alt, "dof": t.dof, "trials": t.trials,
+                       "n_searched": t.n_searched, "n_obs": t.n_obs} for t in tests])
+    return row
+
+
+def joint_alarms(rows: list[dict], inflation: dict, alpha: float) -> list[dict]:
+    """Recordings on which the joint stage would add something at ``inflation`` and
+    ``alpha`` (its first addition: any addition on a clean recording is a false alarm)."""
+    from tmopt.mismatch.joint import JointTest
+
+    out = []
+    for r in rows:
+        tests = [JointTest(evals=[], **{k: t[k] for k in ("glr_null", "glr_alt", "dof", "trials",
+                                                          "n_searched", "n_obs", "family")})
+                 for t in r["tests"]]  # fmt: skip
+        hits = [(t.score(len(tests), inflation), k) for k, t in zip(r["tests"], tests)]
+        hits = [(t, k) for t, k in hits if t.significant(alpha)]
+        if hits:
+            t, k = max(hits, key=lambda h: h[0].dbic)
+            out.append({"backend": r["backend"], "seed": r["seed"], "keys": k["keys"],
+                        "family": t.family, "p": t.p_value})  # fmt: skip
+    return out
+
+
+def _joint(args, out: Path) -> int:
+    """The joint stage's null distribution per family and its false alarms (resumable)."""
+    import json
+
+    from mismatch_realistic import calibration_jobs
+
+    path = out / "joint_rows.jsonl"
+    rows = [json.loads(x) for x in path.open()] if path.exists() else []
+    done = {(r["backend"], r["seed"]) for r in rows}
+    jobs = [j for j in calibration_jobs(args.n) if j not in done]
+    with mp.get_context("spawn").Pool(args.jobs) as pool, path.open("a") as fh:
+        for i, r in enumerate(pool.imap(joint_job, jobs), start=1):
+            rows.append(r)
+            fh.write(json.dumps(r) + "\n")
+            fh.flush()
+            best = max(r["tests"], key=lambda t: t["glr_alt"], default=None)
+            print(f"[{i}/{len(jobs)}] {r['backend']} {r['seed']}: selected "
+                  f"{r.get('selected')}, largest glr_alt "
+                  f"{best and (best['keys'], round(best['glr_alt'], 1))}", flush=True)  # fmt: skip
+    text = joint_summary(rows)
+    (out / "joint_summary.md").write_text(text)
+    print(text)
+    return 0
+
+
+def joint_summary(rows: list[dict]) -> str:
+    """Per family: the largest statistics and the smallest inflation at which the stage
+    adds nothing on more than ``alpha`` of the clean recordings; the false alarms of the
+    tool's constants (tmopt.mismatch.joint.INFLATION) at the tool's level."""
+    from tmopt.mismatch import calibration as cal
+    from tmopt.mismatch.joint import INFLATION
+
+    rows = [r for r in rows if not r["refused"]]
+    n = len(rows)
+    lines = [f"{n} clean recordings scored ({sum(r['backend'] == 'kernel' for r in rows)} "
+             f"kernel, {sum(r['backend'] == 'foreign' for r in rows)} foreign).", "",
+             "| family | tests | largest glr_alt (keys) | median glr_alt / glr_null | "
+             "smallest inflation with <= alpha n alarms |", "|---|---|---|---|---|"]  # fmt: skip
+    alpha = cal.FAMILY_ALPHA
+    for fam in ("drift", "other"):
+        ts = [t for r in rows for t in r["tests"] if t["family"] == fam]
+        if not ts:
+            continue
+        big = max(ts, key=lambda t: t["glr_alt"])
+        ratio = np.median([t["glr_alt"] / max(t["glr_null"], 1e-9) for t in ts])
+        only = [dict(r, tests=[t for t in r["tests"] if t["family"] == fam]) for r in rows]
+        c = 1.0
+        while len(joint_alarms(only, {fam: c}, alpha)) > alpha * n and c < 100:
+            c = round(c + 0.05, 2)
+        lines.append(f"| {fam} | {len(ts)} | {big['glr_alt']:.1f} ({big['keys']}) | "
+                     f"{ratio:.2f} | {c:.2f} |")  # fmt: skip
+    lines.append("")
+    lines.append("| backend | false alarms of the joint stage, INFLATION = "
+                 f"{INFLATION}, alpha = {alpha:g} | 95 % interval |")
+    lines.append("|---|---|---|")
+    for b in ("kernel", "foreign", "both"):
+        sel = [r for r in rows if b in (r["backend"], "both")]
+        al = joint_alarms(sel, INFLATION, alpha)
+        lo, hi = clopper_pearson(len(al), len(sel))
+        lines.append(f"| {b} | {len(al)}/{len(sel)} | [{lo:.3f}, {hi:.3f}] |")
+    for a in joint_alarms(rows, INFLATION, alpha):
+        lines.append(f"- alarm: {a['backend']} {a['seed']} {a['keys']} ({a['family']}, "
+                     f"p = {a['p']:.3g})")  # fmt: skip
+    return "\n".join(lines) + "\n"
 
 
 if __name__ == "__main__":

@@ -73,6 +73,7 @@ class Settings:
     max_effects: int = 4
     noise: str = "coloured"
     generic: bool = True  # test unnamed features (tmopt.mismatch.generic) beside the catalogue
+    joint: bool = True  # re-test left-out candidates under the alternative (tmopt.mismatch.joint)
 
     def __post_init__(self) -> None:
         if not (0 < self.alpha < 1 and 0 < self.locate_alpha < 1):

@@ -1,0 +1,149 @@
+"""Joint stage (issue 26, item 5): re-test the best candidates the greedy selection left
+out, with the coloured noise model re-estimated *under the alternative*.
+
+Why.  The selection (:mod:`tmopt.mismatch.diagnose`) estimates the equation group's
+noise spectrum from the current residual, i.e. under the null "no further effect".  An
+effect not yet fitted is part of that residual: its power raises the smoothed spectrum in
+its own band and is whitened down with it (a bias drift beside a 0.2 s actuation delay:
+GLR 14.7 under the null's noise, 92.6 under the alternative's; docs/mismatch.md 9.7,
+"Seventh round").  Pairs of effects are where this bites: the first effect is fitted,
+the second one's statistic is computed against a spectrum that still holds it.
+
+The statistic.  For a candidate with columns ``X`` added to the fitted columns ``X0``,
+the spectrum is profiled at the alternative: the noise model ``S1`` is re-estimated from
+the residual of the fit with ``X`` (feasible GLS iterated as the selection does,
+:func:`tmopt.mismatch.diagnose._fit_eq`), and the likelihood ratio of ``X`` is computed
+with both fits whitened by ``S1`` -- ``L = n log(RSS0/RSS1)`` (the Gaussian LR with the
+scale profiled; the same statistic as the selection's, with the alternative's spectrum in
+place of the null's).  This is the generalised LR with the nuisance spectrum at its
+alternative estimate (the estimate that does not absorb the candidate); under "no effect"
+it is no longer chi^2: where a candidate's fit removes noise power (a drift-like column
+on 1/f^2 acceleration noise takes the random walk's "ramp"), ``S1`` is lowered in that
+band and ``L`` inflated.  So its null distribution is measured, per family, on clean
+flight-like recordings of both simulators (experiments/mismatch_calibration.py
+``--realistic --joint``; docs/mismatch.md 9.8):
+
+* ``drift``: ``bias_drift``, ``stiffness_drift`` -- slow columns, inflated by 1/f^2 noise;
+* ``other``: every other equation-group catalogue effect that is linear in its
+  parameters (gains, delays, couplings, cubic stiffness, rotation, readout scale ...).
+
+Each family's inflation ``c_f`` (:data:`INFLATION`) is the calibration's; a candidate is
+significant when ``p = min(1, m * trials * chi2_sf(L / c_f, dof)) < alpha`` with ``m``
+the number of candidates re-tested on the recording (Bonferroni over the stage's
+trials; ``trials`` the candidate's own search factor, as in the selection), and its
+``L / c_f - (dof + searched) ln n > 0`` (BIC, as the selection).  The best such candidate
+(largest BIC gain) is added to the model and the stage repeats (at most
+:data:`MAX_ADDED` additions); the selection's rules then judge it as any selected
+effect (ambiguity band among the stage's significant candidates, backward elimination,
+weak names, shape check).
+
+Candidates re-tested: the :data:`TOP` strongest (null GLR) not selected, of the
+equation group, not profiled (a searched form is the selection's business), not an
+accelerometer twin; and when the selection chose nothing, also every pair of them (a
+pair's columns together; both must be named by the selection's rules afterwards).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+from scipy import stats
+
+from tmopt.mismatch import calibration as cal
+from tmopt.mismatch.effects import EFFECTS
+
+__all__ = ["DRIFT_LIKE", "INFLATION", "TOP", "PAIR_TOP", "MAX_ADDED", "family", "alt_statistics",
+           "JointTest"]
+
+#: Effects whose columns are slow in time: their null distribution under the
+#: alternative's noise is inflated by the 1/f^2 acceleration noise (random-walk ramps).
+DRIFT_LIKE = frozenset({"bias_drift", "stiffness_drift"})
+
+#: Per family, the factor by which ``L`` under the alternative's noise exceeds chi^2 in
+#: the upper tail on clean flight-like recordings (calibrated: docs/mismatch.md 9.8).
+INFLATION = {"drift": 1.0, "other": 1.0}
+
+#: Candidates re-tested per recording (by null GLR), of them paired when nothing is
+#: selected, and additions at most.
+TOP, PAIR_TOP, MAX_ADDED = 6, 4, 2
+
+
+def family(effect: str) -> str:
+    return "drift" if effect in DRIFT_LIKE else "other"
+
+
+@dataclass
+class JointTest:
+    """One re-tested candidate (or pair): ``evals`` the selection's evaluations of its
+    members, ``glr_null`` their sum of null GLRs, ``glr_alt`` the statistic under the
+    alternative's noise, ``dof``, ``trials`` (product of the members' search factors),
+    ``n_searched``, ``n_obs``; ``p_value`` and ``dbic`` after :func:`score`."""
+
+    evals: list
+    glr_null: float
+    glr_alt: float
+    dof: int
+    trials: float
+    n_searched: int
+    n_obs: int
+    family: str
+    p_value: float = 1.0
+    dbic: float = -math.inf
+
+    @property
+    def keys(self) -> list[str]:
+        return [e.candidate.key for e in self.evals]
+
+    def score(self, m: int, inflation: dict | None = None) -> JointTest:
+        """p-value (Bonferroni over ``m`` re-tests and the members' searches) and BIC gain
+        of the family-deflated statistic."""
+        c = (INFLATION if inflation is None else inflation)[self.family]
+        lam = self.glr_alt / c
+        self.p_value = min(1.0, m * self.trials * float(stats.chi2.sf(lam, self.dof)))
+        self.dbic = lam - (self.dof + self.n_searched) * math.log(self.n_obs)
+        return self
+
+    def significant(self, alpha: float = cal.FAMILY_ALPHA) -> bool:
+        return self.p_value < alpha and self.dbic > 0
+
+
+def eligible(ev) -> bool:
+    c = ev.candidate
+    model = EFFECTS.get(c.effect)
+    return (c.group == "equation" and c.twin is None and model is not None
+            and not model.profiled)
+
+
+def alt_statistics(data, basis, state, evals: list, settings, pairs: bool,
+                   top: int = TOP, pair_top: int = PAIR_TOP) -> list[JointTest]:  # fmt: skip
+    """The re-tests of the ``top`` strongest eligible ``evals`` (evaluations against
+    ``state``, the selection's final model), and of the pairs of the ``pair_top``
+    strongest when ``pairs``."""
+    from tmopt.mismatch.diagnose import _fit_eq, _Group
+    from tmopt.mismatch.fit import equation_target, solve
+
+    cands = sorted((e for e in evals if eligible(e)), key=lambda e: -e.glr)[:top]
+    target = equation_target(data, basis)
+    kind = "smoothed" if settings.noise == "coloured" else "white"
+    sets = [[e] for e in cands]
+    if pairs:
+        sets += [list(p) for p in itertools.combinations(cands[:pair_top], 2)
+                 if p[0].candidate.effect != p[1].candidate.effect
+                 or p[0].candidate.channel != p[1].candidate.channel]  # fmt: skip
+    out = []
+    for members in sets:
+        cols = [c for e in members for c in e.candidate.columns]
+        _, noise1 = _fit_eq(target, state.eq_cols + cols, state.red, data.layout, data.fs,
+                            kind)  # fmt: skip
+        fit0 = solve(target, state.eq_cols, noise1.whiten)
+        group = _Group(None, state.eq_cols, fit0, noise1.whiten)
+        fams = {family(e.candidate.effect) for e in members}
+        out.append(JointTest(
+            evals=members, glr_null=float(sum(e.glr for e in members)),
+            glr_alt=group.glr(cols), dof=len(cols),
+            trials=math.prod(e.candidate.trials for e in members),
+            n_searched=sum(e.candidate.n_searched for e in members), n_obs=group.n,
+            family="drift" if "drift" in fams else "other"))  # fmt: skip
+    return out
