@@ -168,8 +168,9 @@ def joint_job(job: tuple[str, int]) -> dict:
     chosen = {ev.candidate.key for ev, _ in dg.selected}
     evals = evaluate(dg.data, dg.basis, dg.after, settings, chosen)
     tests = joint.alt_statistics(dg.data, dg.basis, dg.after, evals, settings,
-                                 pairs=not dg.selected)  # fmt: skip
+                                 pairs=not dg.selected, screen=1.0)  # fmt: skip
     row.update(selected=sorted(chosen), detected=bool(dg.mismatch_detected),
+               n_tests=len(dg.steps[0]),
                cpu_s=time.process_time() - t0,
                tests=[{"keys": t.keys, "family": t.family, "glr_null": t.glr_null,
                        "glr_alt": t.glr_alt, "dof": t.dof, "trials": t.trials,
@@ -177,18 +178,42 @@ def joint_job(job: tuple[str, int]) -> dict:
     return row
 
 
+def screened_tests(row: dict, alpha: float) -> tuple[list[dict], int]:
+    """A row's raw re-tests (the ``TOP`` strongest eligible, unscreened) reduced to what
+    the stage tests at ``alpha`` (tmopt.mismatch.joint.screened / pair_indices), and how
+    many of its pairs the raw row lacks (a screened candidate ranked below PAIR_TOP)."""
+    from tmopt.mismatch.joint import pair_indices
+
+    singles = [t for t in row["tests"] if len(t["keys"]) == 1]
+    raw_pairs = dict(zip(pair_indices([t["keys"][0] for t in singles]),
+                         [t for t in row["tests"] if len(t["keys"]) == 2]))  # fmt: skip
+    keep = [i for i, t in enumerate(singles)
+            if min(1.0, t["trials"] * stats.chi2.sf(t["glr_null"], t["dof"])) < alpha]
+    out, missing = [singles[i] for i in keep], 0
+    if row.get("selected") == []:
+        for a, b in pair_indices([singles[i]["keys"][0] for i in keep]):
+            t = raw_pairs.get((keep[a], keep[b]))
+            if t is None:
+                missing += 1
+            else:
+                out.append(t)
+    return out, missing
+
+
 def joint_alarms(rows: list[dict], inflation: dict, alpha: float) -> list[dict]:
     """Recordings on which the joint stage would add something at ``inflation`` and
     ``alpha`` (its first addition: any addition on a clean recording is a false alarm)."""
-    from tmopt.mismatch.joint import JointTest
+    from tmopt.mismatch.joint import JointTest, trials
 
     out = []
     for r in rows:
+        raw, _ = screened_tests(r, alpha)
         tests = [JointTest(evals=[], **{k: t[k] for k in ("glr_null", "glr_alt", "dof", "trials",
                                                           "n_searched", "n_obs", "family")})
-                 for t in r["tests"]]  # fmt: skip
-        hits = [(t.score(len(tests), inflation), k) for k, t in zip(r["tests"], tests)]
-        hits = [(t, k) for t, k in hits if t.significant(alpha)]
+                 for t in raw]  # fmt: skip
+        hits = [(t.score(trials(r["n_tests"], len(k["keys"])), inflation), k)
+                for k, t in zip(raw, tests)]  # fmt: skip
+        hits = [(t, k) for t, k in hits if t.family in inflation and t.significant(alpha)]
         if hits:
             t, k = max(hits, key=lambda h: h[0].dbic)
             out.append({"backend": r["backend"], "seed": r["seed"], "keys": k["keys"],
@@ -235,18 +260,22 @@ def joint_summary(rows: list[dict]) -> str:
              "| family | tests | largest glr_alt (keys) | median glr_alt / glr_null | "
              "smallest inflation with <= alpha n alarms |", "|---|---|---|---|---|"]  # fmt: skip
     alpha = cal.FAMILY_ALPHA
+    screened = [screened_tests(r, alpha) for r in rows]
     for fam in ("drift", "other"):
-        ts = [t for r in rows for t in r["tests"] if t["family"] == fam]
+        ts = [t for raw, _ in screened for t in raw if t["family"] == fam]
         if not ts:
             continue
         big = max(ts, key=lambda t: t["glr_alt"])
         ratio = np.median([t["glr_alt"] / max(t["glr_null"], 1e-9) for t in ts])
-        only = [dict(r, tests=[t for t in r["tests"] if t["family"] == fam]) for r in rows]
         c = 1.0
-        while len(joint_alarms(only, {fam: c}, alpha)) > alpha * n and c < 100:
+        while len(joint_alarms(rows, {fam: c}, alpha)) > alpha * n and c < 100:
             c = round(c + 0.05, 2)
         lines.append(f"| {fam} | {len(ts)} | {big['glr_alt']:.1f} ({big['keys']}) | "
                      f"{ratio:.2f} | {c:.2f} |")  # fmt: skip
+    lines.append(f"\nRe-tested per recording (screened at alpha = {alpha:g}): "
+                 f"{sum(len(raw) for raw, _ in screened)} tests on {n} recordings, "
+                 f"{sum(bool(raw) for raw, _ in screened)} recordings with any; pairs the raw "
+                 f"rows lack: {sum(m for _, m in screened)}.")  # fmt: skip
     lines.append("")
     lines.append("| backend | false alarms of the joint stage, INFLATION = "
                  f"{INFLATION}, alpha = {alpha:g} | 95 % interval |")

@@ -974,6 +974,11 @@ def _select(data: Data, basis: np.ndarray, before: State, settings: Settings,
         if len(kept) < len(selected):
             selected = kept
             state = _rebuild(data, basis, [ev for ev, _ in kept], settings)
+    if settings.joint:  # issue 26.5: what the null's noise hid (tmopt.mismatch.joint)
+        from tmopt.mismatch import joint
+
+        selected, state = joint.extend(data, basis, state, selected, settings, tests, n_tests,
+                                       banned)  # fmt: skip
     return selected, steps, state, n_tests
 
 

@@ -45,6 +45,7 @@ pair's columns together; both must be named by the selection's rules afterwards)
 
 from __future__ import annotations
 
+import copy
 import itertools
 import math
 from dataclasses import dataclass
@@ -55,7 +56,7 @@ from tmopt.mismatch import calibration as cal
 from tmopt.mismatch.effects import EFFECTS
 
 __all__ = ["DRIFT_LIKE", "INFLATION", "TOP", "PAIR_TOP", "MAX_ADDED", "family", "alt_statistics",
-           "JointTest"]
+           "JointTest", "extend", "screened", "pair_indices", "trials"]
 
 #: Effects whose columns are slow in time: their null distribution under the
 #: alternative's noise is inflated by the 1/f^2 acceleration noise (random-walk ramps).
@@ -109,6 +110,14 @@ class JointTest:
         return self.p_value < alpha and self.dbic > 0
 
 
+def trials(n_tests: int, size: int) -> int:
+    """Bonferroni factor of a re-test of ``size`` candidates: the stage re-tests
+    hypotheses the selection tested over the whole catalogue of ``n_tests`` candidates
+    (the screen and :data:`TOP` pick them by the data), so it carries their multiplicity:
+    ``n_tests`` for one, the number of pairs for two."""
+    return math.comb(max(n_tests, size), size)
+
+
 def eligible(ev) -> bool:
     c = ev.candidate
     model = EFFECTS.get(c.effect)
@@ -116,22 +125,37 @@ def eligible(ev) -> bool:
             and not model.profiled)
 
 
+def screened(evals: list, screen: float, top: int = TOP) -> list:
+    """The candidates the stage re-tests: eligible, significant alone at ``screen``
+    (their own p-value, trials factor included, before the catalogue-wide correction),
+    the ``top`` strongest by null GLR."""
+    return sorted((e for e in evals if eligible(e) and e.p_value < screen),
+                  key=lambda e: -e.glr)[:top]  # fmt: skip
+
+
+def pair_indices(keys: list[str], pair_top: int = PAIR_TOP) -> list[tuple[int, int]]:
+    """Pairs of the ``pair_top`` first of the re-tested candidates (two variants of one
+    effect on one channel are no pair), in the order :func:`alt_statistics` tests them."""
+    n = min(len(keys), pair_top)
+    return [(i, j) for i, j in itertools.combinations(range(n), 2) if keys[i] != keys[j]]
+
+
 def alt_statistics(data, basis, state, evals: list, settings, pairs: bool,
-                   top: int = TOP, pair_top: int = PAIR_TOP) -> list[JointTest]:  # fmt: skip
-    """The re-tests of the ``top`` strongest eligible ``evals`` (evaluations against
-    ``state``, the selection's final model), and of the pairs of the ``pair_top``
-    strongest when ``pairs``."""
+                   screen: float | None = None) -> list[JointTest]:  # fmt: skip
+    """The re-tests of the :func:`screened` ``evals`` (evaluations against ``state``, the
+    selection's final model; ``screen`` defaults to ``settings.alpha``, 1 re-tests the
+    :data:`TOP` strongest eligible ones), and of their pairs (:func:`pair_indices`)
+    when ``pairs``."""
     from tmopt.mismatch.diagnose import _fit_eq, _Group
     from tmopt.mismatch.fit import equation_target, solve
 
-    cands = sorted((e for e in evals if eligible(e)), key=lambda e: -e.glr)[:top]
+    cands = screened(evals, settings.alpha if screen is None else screen)
     target = equation_target(data, basis)
     kind = "smoothed" if settings.noise == "coloured" else "white"
     sets = [[e] for e in cands]
     if pairs:
-        sets += [list(p) for p in itertools.combinations(cands[:pair_top], 2)
-                 if p[0].candidate.effect != p[1].candidate.effect
-                 or p[0].candidate.channel != p[1].candidate.channel]  # fmt: skip
+        sets += [[cands[i], cands[j]]
+                 for i, j in pair_indices([e.candidate.key for e in cands])]  # fmt: skip
     out = []
     for members in sets:
         cols = [c for e in members for c in e.candidate.columns]
@@ -147,3 +171,75 @@ def alt_statistics(data, basis, state, evals: list, settings, pairs: bool,
             n_searched=sum(e.candidate.n_searched for e in members), n_obs=group.n,
             family="drift" if "drift" in fams else "other"))  # fmt: skip
     return out
+
+
+def _as_evaluation(test: JointTest, ev):
+    """The selection's evaluation of a single re-test's candidate, carrying the stage's
+    evidence (deflated statistic, its p-value and BIC gain) so the attribution rules
+    (weak names, remainders, ambiguity) judge what the stage found."""
+    from tmopt.mismatch.diagnose import Evaluation
+
+    c = INFLATION[test.family]
+    return Evaluation(copy.copy(ev.candidate), test.glr_alt / c, test.dof, test.n_obs,
+                      test.p_value, test.p_value)  # fmt: skip
+
+
+def _retest(data, basis, others: list, ev, settings, m: int) -> JointTest:
+    """One selected candidate re-tested given the ``others`` selected (the backward pass
+    of the stage: its statistic with the full model's noise)."""
+    from tmopt.mismatch.diagnose import _rebuild
+
+    state = _rebuild(data, basis, others, settings)
+    return alt_statistics(data, basis, state, [ev], settings, pairs=False, screen=1.0)[0].score(m)
+
+
+def extend(data, basis, state, selected: list, settings, tests, n_tests: int,
+           banned: set[str]) -> tuple[list, object]:  # fmt: skip
+    """The joint stage after the greedy selection and its backward pass (module
+    docstring): returns the selection and state with what the stage added.  An effect it
+    added must stay significant under the alternative's noise given every other selected
+    effect, and the greedy selection's effects under the selection's own backward rule
+    (:func:`tmopt.mismatch.diagnose._still_needed`); the first to fail is dropped, and so
+    on (backward elimination)."""
+    from tmopt.mismatch.diagnose import _add, _rebuild, _still_needed, events
+
+    added: dict[int, int] = {}  # id of an evaluation the stage added -> its re-tests m
+    for _ in range(MAX_ADDED):
+        if len(events(selected)) >= settings.max_effects:
+            break
+        exclude = set(banned) | {ev.candidate.key for ev, _ in selected}
+        evals = tests(state, exclude)
+        jt = alt_statistics(data, basis, state, evals, settings, pairs=not selected)
+        for t in jt:
+            t.score(trials(n_tests, len(t.evals)))
+        sig = [t for t in jt if t.significant(settings.alpha)]
+        if not sig:
+            break
+        best = max(sig, key=lambda t: t.dbic)
+        singles = {id(t.evals[0]): t for t in jt if len(t.evals) == 1}
+        rivals = [t for t in sig if len(t.evals) == 1 and not set(t.keys) & set(best.keys)
+                  and best.dbic - t.dbic < cal.AMBIGUOUS_DBIC]  # fmt: skip
+        alts = [_as_evaluation(t, t.evals[0]) for t in rivals]
+        for ev in best.evals:
+            new = _as_evaluation(singles[id(ev)], ev)
+            state = _add(data, basis, state, new, settings)
+            selected = selected + [(new, alts)]
+            added[id(new)] = trials(n_tests, 1)
+    if not added or len(selected) < 2:
+        return selected, state
+    changed = True
+    while changed and len(selected) > 1:
+        changed = False
+        chosen = [ev for ev, _ in selected]
+        for i in reversed(range(len(chosen))):
+            others = chosen[:i] + chosen[i + 1:]
+            if id(chosen[i]) in added:
+                ok = _retest(data, basis, others, chosen[i], settings,
+                             added[id(chosen[i])]).significant(settings.alpha)  # fmt: skip
+            else:
+                ok = _still_needed(data, basis, chosen, i, settings, n_tests)
+            if not ok:
+                selected = selected[:i] + selected[i + 1:]
+                changed = True
+                break
+    return selected, _rebuild(data, basis, [ev for ev, _ in selected], settings)
