@@ -225,7 +225,10 @@ def extend(data, basis, state, selected: list, settings, tests, n_tests: int,
             state = _add(data, basis, state, new, settings)
             selected = selected + [(new, alts)]
             added[id(new)] = trials(n_tests, 1)
-    if not added or len(selected) < 2:
+    if not added:
+        return selected, state
+    if len(selected) < 2:
+        _note(data, selected, added)
         return selected, state
     changed = True
     while changed and len(selected) > 1:
@@ -242,4 +245,16 @@ def extend(data, basis, state, selected: list, settings, tests, n_tests: int,
                 selected = selected[:i] + selected[i + 1:]
                 changed = True
                 break
+    _note(data, selected, added)
     return selected, _rebuild(data, basis, [ev for ev, _ in selected], settings)
+
+
+def _note(data, selected: list, added: dict) -> None:
+    """Say in the report's notes which effects the stage added (once per diagnosis)."""
+    for ev, _ in selected:
+        if id(ev) in added:
+            note = (f"joint stage: {ev.candidate.key} found with the noise model re-estimated "
+                    f"under the alternative (statistic {ev.glr:.1f} after its family's "
+                    f"inflation, p = {ev.p_value:.2g})")
+            if note not in data.notes:
+                data.notes.append(note)
