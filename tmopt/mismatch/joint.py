@@ -64,7 +64,7 @@ DRIFT_LIKE = frozenset({"bias_drift", "stiffness_drift"})
 
 #: Per family, the factor by which ``L`` under the alternative's noise exceeds chi^2 in
 #: the upper tail on clean flight-like recordings (calibrated: docs/mismatch.md 9.8).
-INFLATION = {"drift": 1.0, "other": 1.0}
+INFLATION = cal.JOINT_INFLATION
 
 #: Candidates re-tested per recording (by null GLR), of them paired when nothing is
 #: selected, and additions at most.
@@ -125,12 +125,15 @@ def eligible(ev) -> bool:
             and not model.profiled)
 
 
-def screened(evals: list, screen: float, top: int = TOP) -> list:
+def screened(evals: list, screen: float, n_tests: int = 1, top: int = TOP) -> list:
     """The candidates the stage re-tests: eligible, significant alone at ``screen``
-    (their own p-value, trials factor included, before the catalogue-wide correction),
-    the ``top`` strongest by null GLR."""
-    return sorted((e for e in evals if eligible(e) and e.p_value < screen),
-                  key=lambda e: -e.glr)[:top]  # fmt: skip
+    (their own p-value, trials factor included, before the catalogue-wide correction) but
+    not after it (``n_tests`` p >= screen: one the selection would take is its business --
+    left out only because it was banned as beyond physics), the ``top`` strongest by null
+    GLR.  ``screen`` >= 1: no screen."""
+    keep = [e for e in evals if eligible(e) and
+            (screen >= 1 or e.p_value < screen <= n_tests * e.p_value)]  # fmt: skip
+    return sorted(keep, key=lambda e: -e.glr)[:top]
 
 
 def pair_indices(keys: list[str], pair_top: int = PAIR_TOP) -> list[tuple[int, int]]:
@@ -141,7 +144,7 @@ def pair_indices(keys: list[str], pair_top: int = PAIR_TOP) -> list[tuple[int, i
 
 
 def alt_statistics(data, basis, state, evals: list, settings, pairs: bool,
-                   screen: float | None = None) -> list[JointTest]:  # fmt: skip
+                   screen: float | None = None, n_tests: int = 1) -> list[JointTest]:  # fmt: skip
     """The re-tests of the :func:`screened` ``evals`` (evaluations against ``state``, the
     selection's final model; ``screen`` defaults to ``settings.alpha``, 1 re-tests the
     :data:`TOP` strongest eligible ones), and of their pairs (:func:`pair_indices`)
@@ -149,7 +152,7 @@ def alt_statistics(data, basis, state, evals: list, settings, pairs: bool,
     from tmopt.mismatch.diagnose import _fit_eq, _Group
     from tmopt.mismatch.fit import equation_target, solve
 
-    cands = screened(evals, settings.alpha if screen is None else screen)
+    cands = screened(evals, settings.alpha if screen is None else screen, n_tests)
     target = equation_target(data, basis)
     kind = "smoothed" if settings.noise == "coloured" else "white"
     sets = [[e] for e in cands]
@@ -209,9 +212,13 @@ def extend(data, basis, state, selected: list, settings, tests, n_tests: int,
             break
         exclude = set(banned) | {ev.candidate.key for ev, _ in selected}
         evals = tests(state, exclude)
-        jt = alt_statistics(data, basis, state, evals, settings, pairs=not selected)
+        jt = alt_statistics(data, basis, state, evals, settings, pairs=not selected,
+                            n_tests=n_tests)  # fmt: skip
         for t in jt:
             t.score(trials(n_tests, len(t.evals)))
+        data.usage.setdefault("joint_stage", []).extend(
+            {"keys": t.keys, "family": t.family, "glr_null": t.glr_null, "glr_alt": t.glr_alt,
+             "dof": t.dof, "p_value": t.p_value, "delta_bic": t.dbic} for t in jt)  # fmt: skip
         sig = [t for t in jt if t.significant(settings.alpha)]
         if not sig:
             break
