@@ -59,12 +59,14 @@ def test_a_clean_coloured_recording_gains_no_name_from_the_joint_stage():
     dg = diagnose(data, settings)
     assert not dg.selected, [ev.candidate.key for ev, _ in dg.selected]
     assert not dg.mismatch_detected
-    evals = evaluate(dg.data, dg.basis, dg.after, settings, set())
-    tests = joint.alt_statistics(dg.data, dg.basis, dg.after, evals, settings, pairs=True)
-    assert tests, "the stage re-tested nothing: the check would be vacuous"
-    drift = [t for t in tests if t.family == "drift"]
-    assert drift and max(t.glr_alt - t.glr_null for t in drift) > 3.0  # the ramp is lifted
     n_tests = len(dg.steps[0])
+    evals = evaluate(dg.data, dg.basis, dg.after, settings, set())
+    tests = joint.alt_statistics(dg.data, dg.basis, dg.after, evals, settings, pairs=True,
+                                 n_tests=n_tests)  # fmt: skip
+    assert tests, "the stage re-tested nothing: the check would be vacuous"
+    assert [t.keys for t in tests] == [["bias_drift[y1]"]]
+    assert tests[0].glr_alt - tests[0].glr_null > 3.0  # the random walk's ramp is lifted
+    assert [t["keys"] for t in dg.data.usage["joint_stage"]] == [["bias_drift[y1]"]]
     assert not [t for t in tests
                 if t.score(joint.trials(n_tests, len(t.evals))).significant(settings.alpha)]
 
