@@ -37,10 +37,13 @@ trials; ``trials`` the candidate's own search factor, as in the selection), and 
 effect (ambiguity band among the stage's significant candidates, backward elimination,
 weak names, shape check).
 
-Candidates re-tested: the :data:`TOP` strongest (null GLR) not selected, of the
-equation group, not profiled (a searched form is the selection's business), not an
-accelerometer twin; and when the selection chose nothing, also every pair of them (a
-pair's columns together; both must be named by the selection's rules afterwards).
+Candidates re-tested (:func:`screened`): not selected, of the equation group, not
+profiled (a searched form is the selection's business), not an accelerometer twin,
+significant alone at the tool's level but not after the catalogue-wide correction, the
+:data:`TOP` strongest by null GLR; and when the selection chose nothing, also the pairs
+of the :data:`PAIR_TOP` strongest (a pair's columns together; each member is then
+judged by the selection's rules).  Every re-test is recorded in the report's
+``data_used.joint_stage``; what the stage adds is said in its ``notes``.
 """
 
 from __future__ import annotations
