@@ -1,6 +1,6 @@
 """The joint stage (issue 26, item 5; tmopt/mismatch/joint.py): candidates the greedy
 selection left out are re-tested with the noise model re-estimated under the
-alternative, against their family's calibrated null (docs/mismatch.md 9.8).
+alternative, against their family's calibrated null (docs/mismatch.md 9.9).
 
 Recordings are development seeds (< 20000) of both simulators, never the benchmark's
 (40000 on) nor the calibration's (20000-39999).
@@ -80,7 +80,7 @@ def test_a_weak_drift_beside_a_delay_is_named_by_the_joint_stage():
     71.3, 21.9 after the drift family's calibrated inflation (3.25), p = 2.5e-4 with the
     catalogue's 88 trials, and the stage names it.  Without the stage: the delay alone.
     (At SNR 10 the drift's 47.8 / 3.25 = 14.7 misses the level, p = 0.011: the price of
-    the drift family's null on 1/f^2 noise, docs/mismatch.md 9.8.)"""
+    the drift family's null on 1/f^2 noise, docs/mismatch.md 9.9.)"""
     backend, seed = "foreign", 516
     sc = draw_scenario(seed, backend)
     drift = Injection("bias_drift", MAGNITUDES["bias_drift"]["large"], "x1")

@@ -158,3 +158,14 @@ def test_sweep_name_is_given_or_derived_from_the_overrides():
                                       "problem=mw3", "seed=0,1,2"])  # spelling order
     long = sweep_name("", [f"problem.x{i}={i}" for i in range(40)])
     assert len(long) == 120 and long != sweep_name("", [f"problem.x{i}={i}" for i in range(41)])
+
+
+def test_an_option_file_changed_between_two_commands_is_read_again(tmp_path):
+    """constructor_targets memoises each file's targets on its stamp (mtime, size): a
+    user who edits an option file in a long-lived process (the Python API) sees the edit."""
+    option = tmp_path / "algorithm" / "mine.yaml"
+    option.parent.mkdir()
+    option.write_text("defaults:\n  - /constructor/tmopt.algorithms.nsga2.NSGA2\n")
+    assert constructor_targets(tmp_path) == ["tmopt.algorithms.nsga2.NSGA2"]
+    option.write_text("defaults:\n  - /constructor/tmopt.algorithms.mgsaea.MGSAEA\n  - _self_\n")
+    assert constructor_targets(tmp_path) == ["tmopt.algorithms.mgsaea.MGSAEA"]

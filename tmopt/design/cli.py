@@ -3,9 +3,10 @@ what a recording could not identify (docs/design.md).
 
 RECORDING (``.h5``/``.hdf5``, or ``.csv`` with its ``.json``) is diagnosed first
 (``python -m tmopt.mismatch``); a REPORT (``report.json`` of that command) gives the
-"not identifiable" list, and its recording (the report's ``source``) the noise level (a
-nominal fit: conservative when effects were selected).  Writes ``next_excitation.json``,
-``design.md`` and ``next_excitation.png`` into DIR.
+"not identifiable" list and the ambiguous names with their rivals, and its recording
+(the report's ``source``) the noise level (a nominal fit: conservative when effects
+were selected).  Writes ``next_excitation.json``, ``design.md`` and
+``next_excitation.png`` into DIR.
 """
 
 from __future__ import annotations
@@ -30,7 +31,8 @@ def add_design_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--duration", default="600,2400",
                    help="identification time range [s] 'lo,hi' (600,2400)")
     g.add_argument("--effects", default=None,
-                   help="only these flagged effects (comma-separated names; default all)")
+                   help="only these flagged effects (comma-separated names, or name[channel] "
+                        "for one channel, e.g. cubic_stiffness[x1]; default all)")
     g.add_argument("--algorithm", default=DEFAULT_ALGORITHM,
                    help="solver: a name of the algorithm registry, as python -m tmopt "
                         f"algorithm=NAME builds it, surrogate gp ({DEFAULT_ALGORITHM})")
@@ -65,9 +67,11 @@ def check_design_options(args: argparse.Namespace) -> str | None:
     if not 60 <= lo <= hi <= 86400:
         return f"--duration must satisfy 60 <= lo <= hi <= 86400 s; got {args.duration!r}"
     if args.effects is not None:
-        bad = [e for e in args.effects.split(",") if e not in EFFECT_NAMES]
+        bad = [e for e in args.effects.split(",") if e.partition("[")[0] not in EFFECT_NAMES
+               or ("[" in e and not e.endswith("]"))]  # fmt: skip
         if bad:
-            return f"--effects must be names from {list(EFFECT_NAMES)}; got {bad}"
+            return (f"--effects must be names (or name[channel]) from {list(EFFECT_NAMES)}; "
+                    f"got {bad}")  # fmt: skip
     if not 4 <= args.pop_size <= 10000:
         return f"--pop-size must be in [4, 10000]; got {args.pop_size}"
     if not 1 <= args.generations <= 10000:
@@ -137,15 +141,27 @@ def _diagnosis_from_report(path: Path):
     nominal fit for the noise level."""
     from types import SimpleNamespace
 
+    from tmopt.design.plan import NOTHING, REASONS
     from tmopt.mismatch.diagnose import Settings, evaluate, fit_state
+    from tmopt.mismatch.effects import EFFECTS
     from tmopt.mismatch.fit import align_force_timing, data_from_recording, null_basis
 
     rep = json.loads(path.read_text())
     if "not_identifiable" not in rep or "source" not in rep:
         raise ValueError(f"{path}: not a mismatch report (no 'not_identifiable'/'source')")
+    # nothing that could become a target: say so before reading the recording
+    if not any(r.get("reason") in REASONS and r.get("plausible") is not None
+               for r in rep["not_identifiable"]) and not any(  # fmt: skip
+            r.get("feature") or r.get("name") in EFFECTS
+            for a in rep.get("ambiguous", []) for r in a.get("rivals", [])) and not any(
+            f.get("alternatives") for f in rep.get("features", [])):  # fmt: skip
+        raise ValueError(NOTHING)
     src = Path(rep["source"])
     if not src.is_absolute() and not src.exists():
         src = path.parent / src
+    if not src.is_file():  # e.g. "<memory>": a diagnosis of a recording never written
+        raise ValueError(f"{path}: its recording (source {rep['source']!r}) is not a file "
+                         "here; give the recording (.h5, .hdf5, .csv) instead of the report")
     data = align_force_timing(data_from_recording(read_recording(src)))
     basis = null_basis(data.geometry)
     given = rep.get("settings", {})
@@ -155,7 +171,9 @@ def _diagnosis_from_report(path: Path):
     # the diagnosis' first step tests every candidate: its Bonferroni count
     steps = [evaluate(data, basis, state, settings, set())]
     dg = SimpleNamespace(data=data, basis=basis, after=state, settings=settings,
-                         not_identifiable=rep["not_identifiable"], steps=steps)
+                         not_identifiable=rep["not_identifiable"], steps=steps,
+                         ambiguous=rep.get("ambiguous", []),
+                         features=rep.get("features", []))  # fmt: skip
     return dg, [f"noise level from a nominal fit of {src} (the report's recording)"]
 
 

@@ -33,30 +33,50 @@ heteroscedasticity-consistent form at ``E r^2 = v``).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from tmopt.mismatch.effects import EFFECTS, Candidate
+from tmopt.mismatch.effects import EFFECTS, Candidate, Context
 from tmopt.mismatch.fit import Column, Data, nominal_equation_columns
-from tmopt.mismatch.noise_model import NoiseModel
+from tmopt.mismatch.noise_model import NoiseModel, _floor_psd
 from tmopt.physics.recording import AXES
 
-__all__ = ["Target", "NoiseLevel", "Prediction", "predict", "candidate_for"]
+__all__ = ["Target", "Rival", "NoiseLevel", "Prediction", "predict", "candidate_for",
+           "rival_candidate"]
 
 NOMINAL = ("k1xx", "k2xx", "k1yy", "k2yy", "R1", "R2")
 
 
 @dataclass(frozen=True)
+class Rival:
+    """What an ambiguous name could equally be: a catalogue effect ``effect[channel]`` or,
+    with ``feature`` set, an unnamed feature of :mod:`tmopt.mismatch.generic` on
+    ``channel`` (``effect`` is then ``generic.GENERIC``)."""
+
+    effect: str
+    channel: str
+    feature: str | None = None
+
+    @property
+    def key(self) -> str:
+        return f"{self.feature or self.effect}[{self.channel}]"
+
+
+@dataclass(frozen=True)
 class Target:
     """One effect parameter the diagnosis could not identify: ``effect[channel]``, its
-    plausible size (the diagnosis' prior) and why (``not excited`` / ``aliased``)."""
+    plausible size (the diagnosis' prior) and why (``not excited`` / ``aliased``); or an
+    ambiguous name (``reason`` "ambiguous"): ``plausible`` is then the size the recording
+    showed and ``rivals`` the alternatives the prediction profiles (docs/design.md,
+    "Ambiguous names")."""
 
     effect: str
     channel: str
     plausible: float
     reason: str = ""
     aliased_with: str | None = None
+    rivals: tuple[Rival, ...] = ()
 
     @property
     def key(self) -> str:
@@ -78,11 +98,20 @@ class NoiseLevel:
 @dataclass
 class Prediction:
     """Predicted standard errors ``se`` {parameter or target key: value} and, per target,
-    the largest |correlation| of its estimate with a nominal parameter's and that
-    parameter (the aliasing the design should break)."""
+    the largest |correlation| of its estimate with a nominal parameter's (or a rival's)
+    and that parameter (the aliasing the design should break).  ``selection``: per
+    ambiguous equation target, its standard error with its rivals profiled at the
+    diagnosis' *selection step*, whose noise model is estimated from the nominal residual
+    and so holds the target's own unmodelled signal (:func:`selection_noise`)."""
 
     se: dict[str, float]
     correlation: dict[str, tuple[float, str]]
+    selection: dict[str, float] = field(default_factory=dict)
+
+    def judged(self, key: str) -> float:
+        """The standard error the diagnosis judges a target by: at its selection step for
+        an ambiguous name (the rivals' delta-BIC band is decided there), else ``se``."""
+        return self.selection.get(key, self.se[key])
 
 
 def candidate_for(target: Target, data: Data, basis: np.ndarray,
@@ -96,6 +125,30 @@ def candidate_for(target: Target, data: Data, basis: np.ndarray,
         if cand.channel == target.channel:
             return cand
     raise ValueError(f"effect {target.effect!r} has no candidate on channel {target.channel!r}")
+
+
+def rival_candidate(rival: Rival, data: Data, basis: np.ndarray,
+                    cache: dict | None = None) -> Candidate:  # fmt: skip
+    """The candidate of ``rival`` for ``data``: a catalogue effect's (as
+    :func:`candidate_for`), or an unnamed feature whose regressor the planned motion (or
+    the time) fixes -- ``x|x|``, ``x^2``, ``f|f|``, ``x*y``, curvature -- built by the
+    diagnosis' own code (:mod:`tmopt.mismatch.generic`).  A feature searched on the
+    residual (a step at an onset, a line at a frequency, a relaxation) is the recording's
+    event, not a column of a planned run: ValueError."""
+    if rival.feature is None:
+        return candidate_for(Target(rival.effect, rival.channel, 1.0), data, basis, cache)
+    from tmopt.mismatch import generic
+
+    cache = {} if cache is None else cache
+    if generic.GENERIC not in cache:
+        ctx = Context(data, basis)  # these builders read the data only, not a residual
+        cache[generic.GENERIC] = (generic._nonlinear(ctx) + generic._products(ctx)
+                                  + generic._curvatures(ctx))  # fmt: skip
+    for cand in cache[generic.GENERIC]:
+        if cand.channel == rival.channel and cand.fixed.get("feature") == rival.feature:
+            return cand
+    raise ValueError(f"feature {rival.feature!r} on {rival.channel!r} is no column of a "
+                     "planned run (a searched event or line of the recording)")
 
 
 class _Regressors(Data):
@@ -154,12 +207,16 @@ def predict(data: Data, basis: np.ndarray, targets: list[Target], noise: NoiseLe
 
     Equation targets join the nominal columns of Eqs. 12-15 in one GLS design; kinematic
     targets form the kinematic design (the nominal kinematics has no free parameter).
-    The twin of an accelerometer effect in the kinematic group is left out (a lower bound
-    on its information, so the prediction errs on the safe side).  ``tones`` {axis: [Hz]}:
-    the excitation lines of a planned run (default: found in ``data`` as the diagnosis
-    finds them).
+    The rivals of ambiguous targets (:attr:`Target.rivals`) join their group's design
+    too, so every target's standard error is the one with its rivals profiled (the Schur
+    complement of the information matrix, as "aliased" targets get theirs with the
+    nominal parameters profiled).  The twin of an accelerometer effect in the kinematic
+    group is left out (a lower bound on its information, so the prediction errs on the
+    safe side).  ``tones`` {axis: [Hz]}: the excitation lines of a planned run (default:
+    found in ``data`` as the diagnosis finds them).
     """
-    data = regressor_data(data, tuple({source_axis(t.channel) for t in targets} - {-1}), tones)
+    channels = [c for t in targets for c in (t.channel, *(r.channel for r in t.rivals))]
+    data = regressor_data(data, tuple({source_axis(c) for c in channels} - {-1}), tones)
     eq_cols = nominal_equation_columns(data, basis)
     kin_cols: list[Column] = []
     eq_keys, kin_keys = [], []
@@ -172,6 +229,20 @@ def predict(data: Data, basis: np.ndarray, targets: list[Target], noise: NoiseLe
         else:
             kin_cols += cand.columns
             kin_keys.append((t, len(cand.columns)))
+    # rivals after the targets (a rival that is itself a target is in already)
+    where = {t.key: (g, sum(w for _, w in keys[:i]))
+             for g, keys in (("equation", eq_keys), ("kinematic", kin_keys))
+             for i, (t, _) in enumerate(keys)}  # fmt: skip
+    for r in dict.fromkeys(r for t in targets for r in t.rivals):
+        if r.key in where:
+            continue
+        cand = rival_candidate(r, data, basis, cache)
+        if cand.group == "equation":
+            where[r.key] = ("equation", len(eq_cols) - len(NOMINAL))
+            eq_cols += cand.columns
+        else:
+            where[r.key] = ("kinematic", len(kin_cols))
+            kin_cols += cand.columns
     se: dict[str, float] = {}
     corr: dict[str, tuple[float, str]] = {}
     eq_noise, kin_noise = noise.for_data(data)
@@ -184,16 +255,86 @@ def predict(data: Data, basis: np.ndarray, targets: list[Target], noise: NoiseLe
         se[t.key] = _combined(inv[j : j + width, j : j + width])
         c = _corr_row(inv, j)
         k = int(np.argmax(np.abs(c)))
-        corr[t.key] = (float(abs(c[k])), NOMINAL[k])
+        corr[t.key] = _with_rivals(inv, j, t, where, "equation", len(NOMINAL),
+                                   (float(abs(c[k])), NOMINAL[k]))  # fmt: skip
         j += width
     if kin_cols:
         kinv = _iv_covariance(kin_cols, kin_noise)
         j = 0
         for t, width in kin_keys:
             se[t.key] = _combined(kinv[j : j + width, j : j + width])
-            corr[t.key] = (0.0, "")
+            corr[t.key] = _with_rivals(kinv, j, t, where, "kinematic", 0, (0.0, ""))
             j += width
-    return Prediction(se, corr)
+    selection = {}
+    nominal = eq_cols[: len(NOMINAL)]
+    for t, width in eq_keys:
+        if not t.rivals:
+            continue
+        own = candidate_for(t, data, basis, cache).columns
+        rivals = [c for r in t.rivals if where[r.key][0] == "equation"
+                  for c in rival_candidate(r, data, basis, cache).columns]  # fmt: skip
+        noisy = selection_noise(data, nominal, own, t.plausible, noise)
+        inv = _inverse(_whitened(nominal + own + rivals, noisy.whiten))
+        j = len(NOMINAL)
+        selection[t.key] = _combined(inv[j : j + width, j : j + width]
+                                     * _whitened_mean_variance(noisy))  # fmt: skip
+    return Prediction(se, corr, selection)
+
+
+#: Seed of the synthetic noise draw of :func:`selection_noise` (one draw for every
+#: design: common random numbers, so designs differ by their motion only).
+SELECTION_SEED = 0
+
+
+def selection_noise(data: Data, nominal: list[Column], own: list[Column], size: float,
+                    noise: NoiseLevel) -> NoiseModel:  # fmt: skip
+    """The equation noise model the diagnosis will estimate at its selection step on the
+    planned run: from the nominal fit's residual (:func:`tmopt.mismatch.diagnose._fit_eq`,
+    the diagnosis' own estimate, two rounds) of a noise draw of the recording's model
+    (:func:`noise_draw`) plus the target's signal at ``size`` (its columns' sum) -- an
+    unmodelled effect's lines raise the smooth spectrum there (the cubic of docs/design.md,
+    "Ambiguous names": 4.5-7x the final ASD at its harmonics), so the delta-BIC gap to
+    its rivals is judged at a higher noise than the final fit's."""
+    from tmopt.mismatch.diagnose import _fit_eq
+
+    eq_noise, _ = noise.for_data(data)
+    signal = size * sum(c.values for c in own)
+    target = noise_draw(eq_noise, data.layout, SELECTION_SEED) + signal
+    _, model = _fit_eq(target, nominal, False, data.layout, data.fs, eq_noise.kind)
+    return model
+
+
+def noise_draw(model: NoiseModel, layout, seed: int) -> np.ndarray:
+    """One Gaussian draw (C, n) of ``model`` on ``layout``: per segment, white noise
+    coloured by the Cholesky factor of ``S(f)`` (the inverse of
+    :meth:`NoiseModel.whiten`, whose ``S`` is in per-sample variance units)."""
+    rng = np.random.default_rng(seed)
+    c = model.channels
+    out = np.zeros((c, layout.n))
+    for a, b in layout.bounds:
+        m = b - a
+        f = np.fft.rfftfreq(m, 1 / model.fs)
+        chol = np.linalg.cholesky(_floor_psd(model.matrix(f)))
+        w = np.fft.rfft(rng.standard_normal((c, m)), axis=1)
+        out[:, a:b] = np.fft.irfft(np.einsum("fij,jf->if", chol, w), n=m, axis=1)
+    return out
+
+
+def _with_rivals(cov: np.ndarray, j: int, t: Target, where: dict, group: str, offset: int,
+                 best: tuple[float, str]) -> tuple[float, str]:  # fmt: skip
+    """The largest |correlation| of the target's estimate (column j of ``cov``) with a
+    nominal parameter's (``best``) or with one of its rivals' in the same group (first
+    column; at ``offset`` + their position)."""
+    for r in t.rivals:
+        g, pos = where.get(r.key, (None, 0))
+        if g != group:
+            continue
+        i = offset + pos
+        with np.errstate(invalid="ignore", divide="ignore"):
+            c = abs(cov[j, i]) / math.sqrt(max(cov[j, j] * cov[i, i], 1e-300))
+        if np.isfinite(c) and c > best[0]:
+            best = (float(c), r.key)
+    return best
 
 
 def _whitened_mean_variance(noise: NoiseModel) -> float:

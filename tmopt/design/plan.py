@@ -1,8 +1,9 @@
 """From a diagnosis to the next excitation: targets, noise, the solve and the choice.
 
 :func:`plan_from_diagnosis` collects what the recording could not identify (the
-diagnosis' "not excited" / "aliased" list), the noise level it measured and the model it
-identified, builds the :class:`~tmopt.design.problem.DesignProblem`, solves it (any
+diagnosis' "not excited" / "aliased" list, and the names it reported ambiguous with a
+rival a planned run can hold: :func:`ambiguous_targets`), the noise level it measured and
+the model it identified, builds the :class:`~tmopt.design.problem.DesignProblem`, solves it (any
 algorithm of the registry, MGSAEA with the GP by default, or any pymoo algorithm) and
 picks one design:
 
@@ -27,16 +28,19 @@ from scipy import stats
 from tmopt.design.information import (
     NoiseLevel,
     Prediction,
+    Rival,
     Target,
     candidate_for,
     predict,
     regressor_data,
+    rival_candidate,
 )
 from tmopt.design.problem import DesignProblem, DesignSpace
 from tmopt.mismatch.effects import EFFECTS
 from tmopt.mismatch.fit import Data
 
-__all__ = ["Plan", "targets_from", "plan_from_diagnosis", "plan", "choose"]
+__all__ = ["Plan", "targets_from", "ambiguous_targets", "plan_from_diagnosis", "plan",
+           "choose"]
 
 REASONS = ("not excited", "aliased")
 
@@ -77,7 +81,7 @@ def targets_from(entries: list[dict], data: Data, basis: np.ndarray,
         name = r.get("name")
         if r.get("reason") not in REASONS or r.get("plausible") is None or name not in EFFECTS:
             continue
-        if effects is not None and name not in effects:
+        if not wanted(name, r["channel"], effects):
             continue
         if EFFECTS[name].profiled:
             continue
@@ -88,6 +92,119 @@ def targets_from(entries: list[dict], data: Data, basis: np.ndarray,
             continue
         out.append(t)
     return out
+
+
+def wanted(name: str, channel: str, effects: list[str] | None) -> bool:
+    """Is ``name[channel]`` asked for: ``effects`` (None: all) lists names, or names with
+    a channel, ``name[channel]`` (one flagged channel of an effect flagged on several)."""
+    return effects is None or name in effects or f"{name}[{channel}]" in effects
+
+
+#: Why no design is made (one line).
+NOTHING = ("the diagnosis flags no effect parameter as not identifiable and no name as "
+           "ambiguous with a rival a planned run can separate: nothing to design for")
+
+
+def ambiguous_of(dg) -> list[dict]:
+    """The report's ``ambiguous`` entries of a diagnosis (a report's own list when ``dg``
+    was read from a report.json), and one for each catalogue name within the band of a
+    selected unnamed feature (:func:`feature_rivalries`)."""
+    from tmopt.mismatch.diagnose import Diagnosis
+    from tmopt.mismatch.report import ambiguous_entries
+
+    if isinstance(dg, Diagnosis):
+        rep = {"ambiguous": ambiguous_entries(dg), "features": [
+            {"feature": ev.candidate.fixed.get("feature"), "channel": ev.candidate.channel,
+             "alternatives": [{"name": a.candidate.effect, "channel": a.candidate.channel}
+                              for a in alts if a.candidate.effect in EFFECTS]}
+            for ev, alts in dg.features]}  # fmt: skip
+    else:
+        rep = {"ambiguous": getattr(dg, "ambiguous", []), "features": getattr(dg, "features", [])}
+    return list(rep["ambiguous"]) + feature_rivalries(rep["features"], dg)
+
+
+def feature_rivalries(features: list[dict], dg) -> list[dict]:
+    """Ambiguous entries for the catalogue names within the band of a selected unnamed
+    feature (report ``features[i].alternatives``): the name, its rival the feature, and
+    its size as the recording shows it -- the name fitted alone with the nominal model
+    (the feature took its place in the diagnosis, so it has no fitted value there)."""
+    from tmopt.mismatch.diagnose import effect_parameters, fit_state
+    from tmopt.mismatch.generic import GENERIC
+
+    out = []
+    for f in features:
+        for a in f.get("alternatives", []):
+            if a.get("name") not in EFFECTS or f.get("feature") is None:
+                continue
+            try:
+                cand = candidate_for(Target(a["name"], a["channel"], 1.0), dg.data, dg.basis)
+            except ValueError:
+                continue
+            if cand.group != "equation":
+                continue
+            state = fit_state(dg.data, dg.basis, cand.columns, [], False, dg.settings)
+            params = {k: v for k, (v, _) in effect_parameters(state, cand).items()}
+            out.append({"name": a["name"], "channel": a["channel"], "parameters": params,
+                        "rivals": [{"name": GENERIC, "channel": f["channel"],
+                                    "feature": f["feature"]}]})  # fmt: skip
+    return out
+
+
+def ambiguous_targets(entries: list[dict], data: Data, basis: np.ndarray,
+                      effects: list[str] | None = None) -> list[Target]:  # fmt: skip
+    """Targets from the report's ``ambiguous`` entries (docs/mismatch-report-schema.md):
+    the name and the rivals within its ambiguity band that a planned run can hold -- a
+    catalogue effect (not profiled) or an unnamed feature whose column the motion fixes
+    (:func:`tmopt.design.information.rival_candidate`) -- in the name's own residual group
+    (one regression profiles them; two groups are compared by delta BIC only).  The
+    target size is the size the recording showed, ``|value|`` of its one coefficient: the
+    design makes that value detectable with the rivals in the model, which is also the
+    expected delta-BIC gap between the name and each rival (docs/design.md, "Ambiguous
+    names").  Names of several coefficients (a delay's taps) are left out."""
+    probe = regressor_data(replace(data, omega=None, omega_dot=None))
+    cache: dict = {}
+    out = []
+    for e in entries:
+        name = e.get("name")
+        if name not in EFFECTS or EFFECTS[name].profiled:
+            continue
+        if not wanted(name, e.get("channel", ""), effects):
+            continue
+        try:
+            cand = candidate_for(Target(name, e["channel"], 1.0), probe, basis, cache)
+        except ValueError:
+            continue
+        size = _coefficient(cand, (e.get("parameters") or {}).get(cand.params[0]))
+        if len(cand.columns) != 1 or size is None:
+            continue
+        rivals = []
+        for r in e.get("rivals", []):
+            rv = Rival(r.get("name", ""), r.get("channel", ""), r.get("feature"))
+            if rv.feature is None and (rv.effect not in EFFECTS or EFFECTS[rv.effect].profiled):
+                continue  # a shape misfit, a weak name, structure left: no column
+            try:
+                if rival_candidate(rv, probe, basis, cache).group != cand.group:
+                    continue
+            except ValueError:
+                continue
+            rivals.append(rv)
+        if rivals:
+            out.append(Target(name, e["channel"], size, "ambiguous",
+                              " or ".join(r.key for r in rivals), tuple(rivals)))  # fmt: skip
+    return out
+
+
+def _coefficient(cand, value) -> float | None:
+    """|coefficient| of a one-column candidate from its reported parameter (a readout
+    scale is reported as ``e = b / (1 - b)`` of its coefficient b), None if unusable."""
+    if value is None or not math.isfinite(float(value)) or value == 0:
+        return None
+    kind = next(iter(cand.derived.values()))[0] if cand.derived else None
+    if kind == "ratio":
+        value = value / (1.0 + value)
+    elif kind is not None:
+        return None
+    return abs(float(value))
 
 
 def threshold(n_tests: int, alpha: float) -> float:
@@ -215,10 +332,13 @@ def plan_from_diagnosis(dg, space: DesignSpace | None = None, effects: list[str]
                         **solve) -> Plan:  # fmt: skip
     """The next excitation for a :class:`~tmopt.mismatch.diagnose.Diagnosis`."""
     data, basis = dg.data, dg.basis
-    targets = targets_from(dg.not_identifiable, data, basis, effects)
+    amb = list({t.key: t for t in ambiguous_targets(ambiguous_of(dg), data, basis,
+                                                   effects)}.values())  # one per key
+    keys = {t.key for t in amb}  # an ambiguous name's target replaces any other of its key
+    targets = [t for t in targets_from(dg.not_identifiable, data, basis, effects)
+               if t.key not in keys] + amb  # fmt: skip
     if not targets:
-        raise ValueError("the diagnosis flags no effect parameter as not identifiable: "
-                         "nothing to design for")  # fmt: skip
+        raise ValueError(NOTHING)
     noise = NoiseLevel(dg.after.eq_noise, dg.after.kin_noise)
     n_tests = len(dg.steps[0]) if dg.steps else 1
     problem = DesignProblem(targets, noise, data.fs, data.geometry, identified_stiffness(dg),

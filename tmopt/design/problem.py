@@ -242,7 +242,8 @@ class DesignProblem(ExpensiveProblem):
     def objectives(self, pred: Prediction, duration: float) -> np.ndarray:
         row = [pred.se["k1xx"]]
         for e in self.effects:
-            row.append(max(pred.se[t.key] / t.plausible for t in self.targets if t.effect == e))
+            row.append(max(pred.judged(t.key) / t.plausible for t in self.targets
+                           if t.effect == e))  # fmt: skip
         row.append(duration)
         return np.array(row)
 

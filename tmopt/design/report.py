@@ -54,11 +54,18 @@ def build(plan: Plan, source: str = "", notes: list[str] | None = None) -> dict:
             "effect": t.effect, "channel": t.channel, "reason": t.reason,
             "aliased_with": t.aliased_with, "plausible": t.plausible,
             "se_before": _finite(b), "se_after": _finite(a),
-            "detectable_before": bool(pb.z * b <= t.plausible),
-            "detectable_after": bool(pb.z * a <= t.plausible),
+            "detectable_before": bool(pb.z * plan.before.judged(t.key) <= t.plausible),
+            "detectable_after": bool(pb.z * plan.after.judged(t.key) <= t.plausible),
             "correlation_before": _corr(plan.before, t.key),
             "correlation_after": _corr(plan.after, t.key),
         })  # fmt: skip
+        if t.rivals:  # an ambiguous name: its rivals and the expected delta-BIC gap
+            sb, sa = plan.before.judged(t.key), plan.after.judged(t.key)
+            targets[-1].update({"rivals": [r.key for r in t.rivals],
+                                "se_selection_before": _finite(sb),
+                                "se_selection_after": _finite(sa),
+                                "delta_bic_gap_before": _gap(t.plausible, sb),
+                                "delta_bic_gap_after": _gap(t.plausible, sa)})  # fmt: skip
     return {
         "schema_version": SCHEMA_VERSION,
         "source": source,
@@ -81,6 +88,14 @@ def build(plan: Plan, source: str = "", notes: list[str] | None = None) -> dict:
         "model": {"stiffness": list(pb.settings.stiffness), "controller": pb.settings.controller},
         "notes": list(notes or []),
     }  # fmt: skip
+
+
+def _gap(size: float, se: float) -> float | None:
+    """Expected delta-BIC gap between an ambiguous name of coefficient ``size`` (if it is
+    the truth) and its rivals: ``(size / se)^2`` with ``se`` its standard error with the
+    rivals profiled at the diagnosis' selection step (docs/design.md, "Ambiguous
+    names")."""
+    return _finite((size / se) ** 2) if se > 0 else None
 
 
 def _corr(pred, key: str) -> dict:
@@ -110,6 +125,13 @@ def explain(rep: dict) -> list[str]:
         tail = (f" Predicted standard error {_num(t['se_before'])} -> {_num(t['se_after'])} "
                 f"(plausible size {t['plausible']:g}; detectable "
                 f"{'yes' if t['detectable_after'] else 'no'}).")  # fmt: skip
+        if t.get("rivals"):
+            cb, ca = t["correlation_before"], t["correlation_after"]
+            tail += (f" Separated from {' and '.join(t['rivals'])}: |correlation| "
+                     f"{cb['abs']:.3f} -> {ca['abs']:.3f} (largest, with {ca['with']}); "
+                     f"expected delta-BIC gap if it is the truth "
+                     f"{_num(t['delta_bic_gap_before'])} -> {_num(t['delta_bic_gap_after'])} "
+                     "(ambiguous below 6).")  # fmt: skip
         out.append(f"- **{e} [{ch}]** (was {why}): " + _physics(rep, e, ch) + tail)
     return out
 

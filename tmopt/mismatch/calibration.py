@@ -53,5 +53,5 @@ MODEL_PRECISION: float = 0.05
 #: The joint stage's per-family inflation of its statistic under "no effect"
 #: (:mod:`tmopt.mismatch.joint`): the smallest factor at which the stage adds a name on at
 #: most FAMILY_ALPHA / 2 of clean flight-like recordings of both simulators, per family
-#: (``experiments/mismatch_calibration.py --realistic --joint``; docs/mismatch.md 9.8).
+#: (``experiments/mismatch_calibration.py --realistic --joint``; docs/mismatch.md 9.9).
 JOINT_INFLATION: dict[str, float] = {"drift": 3.25, "other": 1.05}

@@ -100,6 +100,14 @@ class State:
     kin_noise: NoiseModel
     n_nominal_eq: int
     n_nominal_kin: int
+    #: The kinematic group's target: :func:`kinematic_target` less the tied twins' terms
+    #: (:func:`_tied_offset`); None: the plain target.
+    kin_target: np.ndarray | None = None
+    #: Tied twins of the selected effects: ``(equation column names, twin, term)``.
+    ties: tuple = ()
+
+    def kinematic_target(self, data: Data) -> np.ndarray:
+        return kinematic_target(data) if self.kin_target is None else self.kin_target
 
 
 @dataclass
@@ -230,17 +238,21 @@ def _fit_kin(target, cols, layout, fs: float, rounds: int | None = None):
 
 
 def fit_state(data: Data, basis: np.ndarray, eq_extra: list[Column], kin_extra: list[Column],
-              red: bool, settings: Settings) -> State:  # fmt: skip
-    """Fit the nominal model plus the given extra columns, noise models re-estimated."""
+              red: bool, settings: Settings, ties: tuple = ()) -> State:  # fmt: skip
+    """Fit the nominal model plus the given extra columns, noise models re-estimated;
+    ``ties``: twins whose kinematic coefficient is tied to equation coefficients
+    (:func:`_tied_offset`)."""
     eq_nom = nominal_equation_columns(data, basis)
     kin_nom = nominal_kinematic_columns(data)
     kind = "smoothed" if settings.noise == "coloured" else "white"
     eq_fit, eq_noise = _fit_eq(equation_target(data, basis), eq_nom + eq_extra, red,
                                data.layout, data.fs, kind)  # fmt: skip
-    kin_fit, kin_noise = _fit_kin(kinematic_target(data), kin_nom + kin_extra,
-                                  data.kin_layout, data.fs)  # fmt: skip
+    target = kinematic_target(data)
+    if ties:
+        target = target - _tied_offset(data, eq_fit, kin_nom + kin_extra, ties)
+    kin_fit, kin_noise = _fit_kin(target, kin_nom + kin_extra, data.kin_layout, data.fs)
     return State(eq_nom + eq_extra, kin_nom + kin_extra, red, eq_fit, eq_noise, kin_fit,
-                 kin_noise, len(eq_nom), len(kin_nom))  # fmt: skip
+                 kin_noise, len(eq_nom), len(kin_nom), target, tuple(ties))  # fmt: skip
 
 
 # --------------------------------------------------------------------------- evidence
@@ -419,6 +431,13 @@ def _joint(cand: Candidate, groups: dict) -> float:
     return float(mean**2 * (w1 + w2))
 
 
+def _statistic(cand: Candidate, groups: dict) -> float:
+    """A candidate's GLR in its group, or jointly with its tested twin."""
+    if cand.twin is not None and cand.twin_tested:
+        return _joint(cand, groups)
+    return groups[cand.group].glr(cand.columns)
+
+
 def evaluate(data: Data, basis: np.ndarray, state: State, settings: Settings,
              exclude: set[str]) -> list[Evaluation]:  # fmt: skip
     """GLR (Wald for the IV group), p-value (with trials factor) and dBIC of every candidate
@@ -433,8 +452,9 @@ def _tests(data: Data, basis: np.ndarray, state: State, settings: Settings,
     ctx = Context(data, basis, state.eq_fit.residual, state.eq_noise)
     groups = {
         "equation": _Group(None, state.eq_cols, state.eq_fit, state.eq_noise.whiten),
-        "kinematic": _IVGroup(kinematic_target(data), state.kin_cols, state.kin_noise.whiten,
-                              state.kin_fit.residual, data.fs, data.kin_layout),
+        "kinematic": _IVGroup(state.kinematic_target(data), state.kin_cols,
+                              state.kin_noise.whiten, state.kin_fit.residual, data.fs,
+                              data.kin_layout),
     }
     out = []
     for effect in CATALOGUE:
@@ -446,7 +466,7 @@ def _tests(data: Data, basis: np.ndarray, state: State, settings: Settings,
                     out.append(_red_noise_eval(cand, state, data.fs))
                 continue
             g = groups[cand.group]
-            lam = g.glr(cand.columns) if cand.twin is None else _joint(cand, groups)
+            lam = _statistic(cand, groups)
             dof = len(cand.columns)
             p = min(1.0, cand.trials * float(stats.chi2.sf(lam, dof)))
             out.append(Evaluation(cand, lam, dof, g.n, p))
@@ -643,7 +663,8 @@ def _add(data, basis, state: State, ev: Evaluation, settings: Settings) -> State
     cand = ev.candidate
     if cand.group == "noise":
         return fit_state(data, basis, state.eq_cols[state.n_nominal_eq :],
-                         state.kin_cols[state.n_nominal_kin :], True, settings)  # fmt: skip
+                         state.kin_cols[state.n_nominal_kin :], True, settings,
+                         state.ties)  # fmt: skip
     eq_x = state.eq_cols[state.n_nominal_eq :]
     kin_x = state.kin_cols[state.n_nominal_kin :]
     tag = f"#{len(eq_x) + len(kin_x)}"  # unique names if an effect is selected twice
@@ -652,7 +673,8 @@ def _add(data, basis, state: State, ev: Evaluation, settings: Settings) -> State
     if cand.twin is not None:
         cand.twin = Column(f"{cand.twin.name}{tag}", cand.twin.values, cand.twin.instrument)
     eq_c, kin_c, _ = _columns([ev])
-    return fit_state(data, basis, eq_x + eq_c, kin_x + kin_c, state.red, settings)
+    return fit_state(data, basis, eq_x + eq_c, kin_x + kin_c, state.red, settings,
+                     state.ties + _ties([ev]))  # fmt: skip
 
 
 def _columns(chosen: list[Evaluation]) -> tuple[list[Column], list[Column], bool]:
@@ -664,7 +686,7 @@ def _columns(chosen: list[Evaluation]) -> tuple[list[Column], list[Column], bool
             red = True
         elif c.group == "equation":
             eq += c.columns
-            if c.twin is not None and np.any(c.twin.instrument):
+            if c.twin is not None and not _tied(c) and np.any(c.twin.instrument):
                 kin.append(c.twin)
         else:
             kin += c.columns
@@ -673,7 +695,7 @@ def _columns(chosen: list[Evaluation]) -> tuple[list[Column], list[Column], bool
 
 def _rebuild(data, basis, chosen: list[Evaluation], settings: Settings) -> State:
     eq, kin, red = _columns(chosen)
-    return fit_state(data, basis, eq, kin, red, settings)
+    return fit_state(data, basis, eq, kin, red, settings, _ties(chosen))
 
 
 def _still_needed(data, basis, chosen: list[Evaluation], i: int, settings: Settings,
@@ -688,11 +710,11 @@ def _still_needed(data, basis, chosen: list[Evaluation], i: int, settings: Setti
     else:
         groups = {
             "equation": _Group(None, st.eq_cols, st.eq_fit, st.eq_noise.whiten),
-            "kinematic": _IVGroup(kinematic_target(data), st.kin_cols, st.kin_noise.whiten,
+            "kinematic": _IVGroup(st.kinematic_target(data), st.kin_cols, st.kin_noise.whiten,
                                   st.kin_fit.residual, data.fs, data.kin_layout),
         }
         g = groups[cand.group]
-        lam = g.glr(cand.columns) if cand.twin is None else _joint(cand, groups)
+        lam = _statistic(cand, groups)
         dof, n, trials = len(cand.columns), g.n, cand.trials
     p = min(1.0, n_tests * trials * float(stats.chi2.sf(lam, dof)))
     return p < settings.alpha and lam - (dof + cand.n_searched) * math.log(n) > 0
@@ -1035,3 +1057,52 @@ def stiffness(state: State) -> dict:
     f = state.eq_fit
     return {k: {"value": f.value(k), "sigma": f.sigma(k)}
             for k in ("k1xx", "k2xx", "k1yy", "k2yy")}  # fmt: skip
+
+
+# ------------------------------------------------------------------ tied twins (9.8)
+
+
+#: Tie twins that carry a ``twin_tie`` (False: round 8's free kinematic coefficient).
+TIE_TWINS = True
+
+
+def _tied(c: Candidate) -> bool:
+    return TIE_TWINS and c.group == "equation" and c.twin_tie is not None
+
+
+def _ties(chosen: list[Evaluation]) -> tuple:
+    """The selected equation candidates' tied twins: ``(column names, twin, term)``."""
+    return tuple((tuple(col.name for col in c.columns), c.twin, c.twin_tie)
+                 for c in (ev.candidate for ev in chosen) if _tied(c))  # fmt: skip
+
+
+def _tied_offset(data: Data, eq_fit: FitResult, kin_cols: list[Column],
+                 ties: tuple) -> np.ndarray:  # fmt: skip
+    """The tied twins' kinematic terms at the joint estimate of their shared parameter.
+
+    One parameter ``p`` (a delay's ``tau/h = sum c_j``) seen by both groups: the equation
+    fit gives ``b1 = 1'c`` with variance ``v1 = 1'C 1`` (``C``: its coefficients'
+    covariance, all other columns free), the kinematic fit with the twin as a column
+    (first order: ``p (1 - p) ~ p``) gives ``b2 +- s2``.  Independent Gaussian estimates
+    of one value: the joint (maximum-likelihood) estimate is their inverse-variance mean
+    -- the same combination whose LR against 0 is the candidate's test
+    (:func:`_joint`) -- and the twin's term at that value is taken out of the kinematic
+    target instead of fitting the twin with a free coefficient (which let it absorb what
+    belongs to other effects: docs/mismatch.md 9.8).  A twin without instrument (no
+    tones on its axis) leaves the equation's estimate alone."""
+    twins = [t for _, t, _ in ties if np.any(t.instrument)]
+    kin = _fit_kin(kinematic_target(data), kin_cols + twins, data.kin_layout, data.fs)[0] \
+        if twins else None  # fmt: skip
+    out = np.zeros((4, data.kin_index.size))
+    for names, twin, term in ties:
+        idx = [eq_fit.names.index(n) for n in names]
+        b1, v1 = float(eq_fit.coef[idx].sum()), float(eq_fit.cov[np.ix_(idx, idx)].sum())
+        w1 = 1.0 / v1 if v1 > 0 else math.inf
+        p = b1
+        if kin is not None and twin.name in kin.names and math.isfinite(w1):
+            b2, s2 = kin.value(twin.name), kin.sigma(twin.name)
+            if s2 > 0 and math.isfinite(s2):
+                w2 = 1.0 / s2**2
+                p = (w1 * b1 + w2 * b2) / (w1 + w2)
+        out += term(p)
+    return out

@@ -62,6 +62,7 @@ __all__ = [
     "equation_target",
     "nominal_equation_columns",
     "kinematic_target",
+    "switch_series",
     "nominal_kinematic_columns",
     "solve",
     "solve_iv",
@@ -502,6 +503,32 @@ def kinematic_series(data: Data, axis: int) -> np.ndarray:
     return g * (data.acc[axis, n] + data.acc[axis, n - 1])
 
 
+def switch_series(data: Data, axis: int, lag: int = 0) -> np.ndarray:
+    """``-(h^2/2) (f_n - 2 f_(n-1) + f_(n-2))`` of one axis on the kinematic rows (0 where
+    n - 2 lies in another segment): the kinematic residual per unit ``tau/h`` of a force
+    that switches a time ``tau`` after the sample inside the step.
+
+    Over a step whose force is E on ``[t_n, t_n + s)`` and L after, ``x_(n+1) - x_n - h v_n
+    = (h^2/2) Fbar_n + (E - L) s (h - s)/2`` with ``Fbar_n`` the step's mean force (what
+    the accelerometer reports); the second difference then leaves ``delta_n - delta_(n-1)``
+    over the ZOH relation of :func:`kinematic_target`.  For a delay ``tau = s < h``
+    (E = f_(n-1), L = f_n) that is ``-(s (h - s)/2) (f_n - 2 f_(n-1) + f_(n-2))``, i.e. this
+    series times ``(tau/h)(1 - tau/h)``: first order in ``tau/h`` (docs/mismatch.md 9.8).
+    ``lag = m``: the same for ``tau = m h + s`` (E = f_(n-m-1), L = f_(n-m)), 0 where
+    n - m - 2 lies in another segment."""
+    n = data.kin_index
+    f = data.force[axis]
+    if lag:
+        g = data.lagged(f, lag)
+        d2 = g[n] - 2.0 * g[n - 1] + g[n - 2]
+        d2[data.lagged(np.ones_like(f), lag + 2)[n] == 0] = 0.0
+        return -0.5 * data.dt**2 * d2
+    d2 = f[n] - 2.0 * f[n - 1] + f[n - 2]
+    first = np.concatenate([np.arange(a + 1, b - 1) == a + 1 for a, b in data.segments])
+    d2[first] = 0.0  # n - 2 is outside the segment
+    return -0.5 * data.dt**2 * d2
+
+
 def nominal_kinematic_columns(data: Data) -> list[Column]:
     """The nominal kinematics is the exact ZOH relation above; its only free parameters
     are an offset per axis and gap-free segment (an accelerometer bias makes one, and the
@@ -680,7 +707,12 @@ def choose_acc_convention(data: Data, k: np.ndarray) -> tuple[str, dict]:
     differ in Eq. 10 by the stiffness term ``k (r_n - r̄_n) ~ -k v h/2``: the nominal
     least-squares fit of Eq. 10 with ``x_n`` or ``(x_n + x_{n+1})/2`` is compared by the
     likelihood ratio ``LR = n log(RSS_held / RSS_mean)``.  That term is in step with the
-    motion, and a wrong convention makes it look like an actuation delay.  When
+    motion, and a wrong convention makes it look like an actuation delay -- and a delay
+    can make a wrong convention look right.  So the LR is first taken with the 1-tap
+    delay columns (:func:`_step_mean_columns`) as nuisance in both fits (what a delay
+    cannot explain) and decides when it reaches ``DECIDE_LR``; otherwise the LR without
+    them decides as before (the delay-free test loses power where the controller makes
+    the two terms alike; docs/mismatch.md 9.8).  When
     ``|LR| < DECIDE_LR`` the data cannot tell (the difference is below the noise) and the
     kinematic evidence decides (:func:`_kinematic_convention`); failing that, ``held``.
     The recording's ``acc_sampling`` attribute, when present, decides instead.
@@ -688,20 +720,26 @@ def choose_acc_convention(data: Data, k: np.ndarray) -> tuple[str, dict]:
     if data.usage.get("acc_convention_from") == "attribute":
         return data.acc_convention, {"from": "attribute"}
     basis = null_basis(data.geometry)
-    rss = {}
-    for conv in ACC_CONVENTIONS:
-        probe = replace(data, acc_convention=conv, notes=[])
-        probe.__dict__.pop("_x_eq", None)
-        fit = solve(equation_target(probe, basis), nominal_equation_columns(probe, basis),
-                    lambda v: v)  # fmt: skip
-        rss[conv] = float(np.sum(fit.residual**2))
     n_obs = 2 * data.n
-    lr = n_obs * math.log(max(rss["held"], 1e-300) / max(rss["mean"], 1e-300))
-    info = {"equation_lr_mean_vs_held": lr}
-    if abs(lr) >= DECIDE_LR:
-        info["decided"] = True
-        info["by"] = "equation group"
-        return ("mean" if lr > 0 else "held"), info
+    info: dict = {}
+    for key, delay in (("equation_lr_mean_vs_held_delay_free", True),
+                       ("equation_lr_mean_vs_held", False)):  # fmt: skip
+        if delay and not DELAY_NUISANCE:
+            continue
+        rss = {}
+        for conv in ACC_CONVENTIONS:
+            probe = replace(data, acc_convention=conv, notes=[])
+            probe.__dict__.pop("_x_eq", None)
+            cols = nominal_equation_columns(probe, basis)
+            cols += _step_mean_columns(probe, basis) if delay else []
+            fit = solve(equation_target(probe, basis), cols, lambda v: v)
+            rss[conv] = float(np.sum(fit.residual**2))
+        lr = n_obs * math.log(max(rss["held"], 1e-300) / max(rss["mean"], 1e-300))
+        info[key] = lr
+        if abs(lr) >= DECIDE_LR:
+            info["decided"] = True
+            info["by"] = "equation group" + (" (delay columns as nuisance)" if delay else "")
+            return ("mean" if lr > 0 else "held"), info
     conv, kin = _kinematic_convention(data, k)
     info.update(kin)
     return conv, info
@@ -709,6 +747,20 @@ def choose_acc_convention(data: Data, k: np.ndarray) -> tuple[str, dict]:
 
 #: |LR| (chi^2_1 units) above which the equation group decides the convention (p ~ 2e-3).
 DECIDE_LR = 10.0
+#: Try the convention's LR with the delay columns as nuisance first (False: r7's test).
+DELAY_NUISANCE = True
+
+
+def _step_mean_columns(data: Data, basis: np.ndarray) -> list[Column]:
+    """Per axis ``f_(n-1) - f_n`` (0 across a gap): what a sub-sample actuation delay adds
+    to the step-mean force (the 1-tap column of ``effects/actuation_delay.py``)."""
+    out = []
+    for i in range(4):
+        f = data.force[i]
+        d = data.lagged(f, 1) - f
+        d[data.lagged(np.ones_like(f), 1) == 0] = 0.0
+        out.append(Column(f"step_mean_{AXES[i]}", axis_column(basis, i, d)))
+    return out
 
 
 def _kinematic_convention(data: Data, k: np.ndarray) -> tuple[str, dict]:

@@ -21,7 +21,7 @@ it is no longer chi^2: where a candidate's fit removes noise power (a drift-like
 on 1/f^2 acceleration noise takes the random walk's "ramp"), ``S1`` is lowered in that
 band and ``L`` inflated.  So its null distribution is measured, per family, on clean
 flight-like recordings of both simulators (experiments/mismatch_calibration.py
-``--realistic --joint``; docs/mismatch.md 9.8):
+``--realistic --joint``; docs/mismatch.md 9.9):
 
 * ``drift``: ``bias_drift``, ``stiffness_drift`` -- slow columns, inflated by 1/f^2 noise;
 * ``other``: every other equation-group catalogue effect that is linear in its
@@ -66,7 +66,7 @@ __all__ = ["DRIFT_LIKE", "INFLATION", "TOP", "PAIR_TOP", "MAX_ADDED", "family", 
 DRIFT_LIKE = frozenset({"bias_drift", "stiffness_drift"})
 
 #: Per family, the factor by which ``L`` under the alternative's noise exceeds chi^2 in
-#: the upper tail on clean flight-like recordings (calibrated: docs/mismatch.md 9.8).
+#: the upper tail on clean flight-like recordings (calibrated: docs/mismatch.md 9.9).
 INFLATION = cal.JOINT_INFLATION
 
 #: Candidates re-tested per recording (by null GLR), of them paired when nothing is

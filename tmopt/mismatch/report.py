@@ -79,11 +79,13 @@ def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
       channel needs what the effect's shape lacks (a drift that is not linear);
     * with ``dg``: weak evidence or a stronger effect's remainder (:attr:`Diagnosis.weak`,
       :func:`tmopt.mismatch.diagnose.weak_names`)."""
-    out = [{"name": a.candidate.effect, "channel": a.candidate.channel, "delta_bic": a.dbic}
+    out = [{"name": a.candidate.effect, "channel": a.candidate.channel, "delta_bic": a.dbic,
+            **_feature_of(a.candidate)}
            for a in alts if a.candidate.effect != ev.candidate.effect]  # fmt: skip
     if dg is None:
         return out
-    out += [{"name": f.candidate.effect, "channel": f.candidate.channel, "delta_bic": f.dbic}
+    out += [{"name": f.candidate.effect, "channel": f.candidate.channel, "delta_bic": f.dbic,
+             **_feature_of(f.candidate)}
             for f, _ in dg.features if f.candidate.channel == ev.candidate.channel]  # fmt: skip
     out += [{"name": "shape misfit (its residual needs a curvature: "
                      "not the effect's shape)", "channel": m["channel"], "delta_bic": None,
@@ -266,7 +268,8 @@ def build_report(dg: Diagnosis) -> dict:
         "locations_unexplained": dg.locations_after.as_dict(),
         "effects": [e for e in entries if not e["rivals"]],
         "ambiguous": [e for e in entries if e["rivals"]],
-        "features": [_feature_entry(dg, ev) for ev, _ in dg.features],
+        "features": [{**_feature_entry(dg, ev), **_named_alternatives(alts)}
+                     for ev, alts in dg.features],  # fmt: skip
         "not_identifiable": _not_identifiable(dg),
         "fit": {"before": before, "after": after},
         "stiffness": {k: _stiff(s) for k, s in (("before", dg.before), ("after", dg.after))},
@@ -471,3 +474,29 @@ def _psd(v: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray]:
     from scipy import signal
 
     return signal.welch(v, fs=fs, nperseg=min(v.size, 4096))
+
+
+# ------------------------------------------------------------ for the design tool
+
+
+def _feature_of(cand) -> dict:
+    """``{"feature": kind}`` of an unnamed feature (which shape, so that a rival can be
+    rebuilt on another run: tmopt.design), else nothing."""
+    kind = None if cand.effect in _NEEDS else cand.fixed.get("feature")  # not catalogue
+    return {"feature": kind} if kind is not None else {}
+
+
+def ambiguous_entries(dg: Diagnosis) -> list[dict]:
+    """The report's ``ambiguous`` entries of ``dg`` (effect entries with ``rivals``)
+    without building the whole report (the design tool's targets)."""
+    if dg.refused is not None:
+        return []
+    return [e for e in _event_entries(dg) if e["rivals"]]
+
+
+def _named_alternatives(alts) -> dict:
+    """``{"alternatives": [...]}``: the catalogue names within the ambiguity band of a
+    selected unnamed feature (a true cubic selected as ``x|x|``), else nothing."""
+    named = [{"name": a.candidate.effect, "channel": a.candidate.channel, "delta_bic": a.dbic}
+             for a in alts if a.candidate.effect in _NEEDS]  # fmt: skip
+    return {"alternatives": named} if named else {}

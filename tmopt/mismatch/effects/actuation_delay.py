@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -16,7 +17,7 @@ from tmopt.mismatch.effects.base import (
     Effect,
     Injection,
 )
-from tmopt.mismatch.fit import Column, axis_column
+from tmopt.mismatch.fit import Column, axis_column, switch_series, tone_instrument
 
 
 class ActuationDelay(Effect):
@@ -27,6 +28,10 @@ class ActuationDelay(Effect):
     force, ``f(t - tau) - f(t) = sum_j c_j (f_{n-j} - f_{n-j+1})`` with group delay
     ``tau = h sum_j c_j`` (an FIR delay with unit DC gain); 1 tap is the first-order
     ``-tau f'`` (Taylor), 3 taps reach ~3 samples.  Per tone: residual/motion ~ i w^3 tau.
+    The positions also see *when* in the step the force switched: the kinematic twin
+    ``(tau/h)(1 - tau/h) x`` :func:`~tmopt.mismatch.fit.switch_series` (docs/mismatch.md
+    9.8), tested jointly with the 1-tap variant; once selected, its coefficient is tied to
+    the delay's own (not fitted freely).
     """
 
     name = "actuation_delay"
@@ -62,5 +67,40 @@ class ActuationDelay(Effect):
                     self.name, a, "equation", ["tau"], ["s"], cols, self.plausible,
                     derived={"tau": ("sum", h)},
                     text=self.explanation.format(ch=a, where=TMS[a]),
+                    twin=self._twin(ctx, i), twin_tested=taps == 1,
+                    twin_tie=_switch_term(ctx.data, i),
                 ))  # fmt: skip
         return out
+
+    def _twin(self, ctx: Context, i: int) -> Column:
+        """The kinematic side of the same ``c1 = tau/h``: the force switches ``tau`` into
+        each step, which the position sees but the step-mean accelerometer does not
+        (:func:`tmopt.mismatch.fit.switch_series`).  Its coefficient is ``c1`` to first
+        order in tau/h: tested jointly with the 1-tap variant; the 3-tap variant (delays
+        of ~1-3 samples, whose switch falls a whole number of samples later) is tested on
+        the equation alone.  Either, once selected, ties the twin's coefficient to its
+        own (:func:`_switch_term`).  Instrument: its excitation-tone part (the loop feeds
+        readout noise into the force)."""
+        d = ctx.data
+        arr = np.zeros((4, d.kin_index.size))
+        inst = np.zeros_like(arr)
+        arr[i] = switch_series(d, i)
+        inst[i] = tone_instrument(arr[i], d.time[d.kin_index], d.tones(i))
+        return Column(f"{self.name}[{AXES[i]}]:kin", arr, inst, tuple(d.tones(i)), i)
+
+
+def _switch_term(data, i: int):
+    """The twin tied to the delay: ``p = tau/h = sum c_j`` -> the kinematic residual of a
+    delay ``tau = m h + s`` (``m`` whole samples, ``0 <= s < h``), ``(s/h)(1 - s/h)`` x
+    the switch series ``m`` samples later (exact; docs/mismatch.md 9.8).  Below one
+    sample (every ``p < 1``, a negative noise estimate included) ``p (1 - p) S``."""
+    base = switch_series(data, i)
+
+    def term(p: float) -> np.ndarray:
+        m = int(math.floor(p)) if p >= 1.0 else 0
+        s = p - m
+        out = np.zeros((4, data.kin_index.size))
+        out[i] = s * (1.0 - s) * (base if m == 0 else switch_series(data, i, m))
+        return out
+
+    return term

@@ -178,6 +178,15 @@ class Candidate:
     derived: dict = field(default_factory=dict)  # how to report a combination of coefs
     text: str = ""
     twin: Column | None = None  # the same parameter's prediction in the kinematic group
+    #: Is the twin part of the candidate's test (:func:`~tmopt.mismatch.diagnose._joint`:
+    #: one parameter seen by both groups)?  False: the twin only joins the kinematic fit
+    #: once the candidate is selected (with its own free coefficient, unless ``twin_tie``).
+    twin_tested: bool = True
+    #: Set: the twin's kinematic coefficient is *tied* to the equation's parameter, not
+    #: free.  Maps ``p``, the sum of the candidate's equation coefficients, to the twin's
+    #: kinematic term (4, rows); once selected that term at the joint estimate of ``p``
+    #: is an offset of the kinematic target (``diagnose._tied_offset``), not a column.
+    twin_tie: Callable[[float], np.ndarray] | None = None
     n_searched: int = 0  # parameters found by search (counted in the BIC penalty)
     #: Axis whose motion drives the effect (a coupling's source): identifiability calls
     #: it "not excited" when that axis has no excitation tones -- its readout is then
