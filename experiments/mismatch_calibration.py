@@ -66,12 +66,20 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--realistic", action="store_true",
                    help="flight-like clean recordings of both simulators (issue 26; "
                         "calibration seeds 20000 onwards)")
+    p.add_argument("--joint", action="store_true",
+                   help="with --realistic: the joint stage's statistics under the alternative's "
+                        "noise and its per-family inflation (tmopt/mismatch/joint.py; resumable)")
     args = p.parse_args(argv)
     if args.n < 1 or args.jobs < 1:
         print("error: --n and --jobs must be >= 1", file=sys.stderr)
         return 2
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    if args.joint and not args.realistic:
+        print("error: --joint needs --realistic", file=sys.stderr)
+        return 2
+    if args.joint:
+        return _joint(args, out)
     if args.realistic:
         return _realistic(args, out)
     jobs = [(5000 + i, SETTINGS[i % len(SETTINGS)]) for i in range(args.n)]
@@ -136,6 +144,154 @@ def _realistic(args, out: Path) -> int:
     (out / "realistic_summary.md").write_text(text)
     print(text)
     return 0
+
+
+
+def joint_job(job: tuple[str, int]) -> dict:
+    """One clean realistic recording: the tool without its joint stage, then the joint
+    stage's re-tests of what it left out (tmopt.mismatch.joint.alt_statistics), raw."""
+    import time
+
+    from tmopt.mismatch import joint
+    from tmopt.mismatch.diagnose import Settings, diagnose, evaluate
+    from tmopt.mismatch.fit import data_from_recording
+    from tmopt.mismatch.realistic import draw_scenario, realistic_recording
+
+    backend, seed = job
+    t0 = time.process_time()
+    rec, _ = realistic_recording(draw_scenario(seed, backend), (), (), seed, backend)
+    settings = Settings(joint=False)
+    dg = diagnose(data_from_recording(rec), settings)
+    row = {"backend": backend, "seed": seed, "refused": dg.refused or "", "tests": []}
+    if dg.refused:
+        return row
+    chosen = {ev.candidate.key for ev, _ in dg.selected}
+    evals = evaluate(dg.data, dg.basis, dg.after, settings, chosen)
+    tests = joint.alt_statistics(dg.data, dg.basis, dg.after, evals, settings,
+                                 pairs=not dg.selected, screen=1.0)  # fmt: skip
+    row.update(selected=sorted(chosen), detected=bool(dg.mismatch_detected),
+               n_tests=len(dg.steps[0]),
+               cpu_s=time.process_time() - t0,
+               tests=[{"keys": t.keys, "family": t.family, "glr_null": t.glr_null,
+                       "glr_alt": t.glr_alt, "dof": t.dof, "trials": t.trials,
+                       "n_searched": t.n_searched, "n_obs": t.n_obs} for t in tests])
+    return row
+
+
+def screened_tests(row: dict, alpha: float) -> tuple[list[dict], int]:
+    """A row's raw re-tests (the ``TOP`` strongest eligible, unscreened) reduced to what
+    the stage tests at ``alpha`` (tmopt.mismatch.joint.screened / pair_indices), and how
+    many of its pairs the raw row lacks (a screened candidate ranked below PAIR_TOP)."""
+    from tmopt.mismatch.joint import pair_indices
+
+    singles = [t for t in row["tests"] if len(t["keys"]) == 1]
+    raw_pairs = dict(zip(pair_indices([t["keys"][0] for t in singles]),
+                         [t for t in row["tests"] if len(t["keys"]) == 2]))  # fmt: skip
+    n = row["n_tests"]  # significant for the selection itself: banned there, never re-tested
+    keep = [i for i, t in enumerate(singles)
+            if n * t["trials"] * stats.chi2.sf(t["glr_null"], t["dof"]) >= alpha
+            > min(1.0, t["trials"] * stats.chi2.sf(t["glr_null"], t["dof"]))]  # fmt: skip
+    out, missing = [singles[i] for i in keep], 0
+    if row.get("selected") == []:
+        for a, b in pair_indices([singles[i]["keys"][0] for i in keep]):
+            t = raw_pairs.get((keep[a], keep[b]))
+            if t is None:
+                missing += 1
+            else:
+                out.append(t)
+    return out, missing
+
+
+def joint_alarms(rows: list[dict], inflation: dict, alpha: float) -> list[dict]:
+    """Recordings on which the joint stage would add something at ``inflation`` and
+    ``alpha`` (its first addition: any addition on a clean recording is a false alarm)."""
+    from tmopt.mismatch.joint import JointTest, trials
+
+    out = []
+    for r in rows:
+        raw, _ = screened_tests(r, alpha)
+        tests = [JointTest(evals=[], **{k: t[k] for k in ("glr_null", "glr_alt", "dof", "trials",
+                                                          "n_searched", "n_obs", "family")})
+                 for t in raw]  # fmt: skip
+        hits = [(t.score(trials(r["n_tests"], len(k["keys"])), inflation), k)
+                for k, t in zip(raw, tests) if t.family in inflation]  # fmt: skip
+        hits = [(t, k) for t, k in hits if t.significant(alpha)]
+        if hits:
+            t, k = max(hits, key=lambda h: h[0].dbic)
+            out.append({"backend": r["backend"], "seed": r["seed"], "keys": k["keys"],
+                        "family": t.family, "p": t.p_value})  # fmt: skip
+    return out
+
+
+def _joint(args, out: Path) -> int:
+    """The joint stage's null distribution per family and its false alarms (resumable)."""
+    import json
+
+    from mismatch_realistic import calibration_jobs
+
+    path = out / "joint_rows.jsonl"
+    rows = [json.loads(x) for x in path.open()] if path.exists() else []
+    done = {(r["backend"], r["seed"]) for r in rows}
+    jobs = [j for j in calibration_jobs(args.n) if j not in done]
+    with mp.get_context("spawn").Pool(args.jobs) as pool, path.open("a") as fh:
+        for i, r in enumerate(pool.imap(joint_job, jobs), start=1):
+            rows.append(r)
+            fh.write(json.dumps(r) + "\n")
+            fh.flush()
+            best = max(r["tests"], key=lambda t: t["glr_alt"], default=None)
+            print(f"[{i}/{len(jobs)}] {r['backend']} {r['seed']}: selected "
+                  f"{r.get('selected')}, largest glr_alt "
+                  f"{best and (best['keys'], round(best['glr_alt'], 1))}", flush=True)  # fmt: skip
+    text = joint_summary(rows)
+    (out / "joint_summary.md").write_text(text)
+    print(text)
+    return 0
+
+
+def joint_summary(rows: list[dict]) -> str:
+    """Per family: the largest statistics and the smallest inflation at which the stage
+    adds something on at most ``alpha / 2`` of the clean recordings (two families: the
+    stage at most ``alpha``); the false alarms of the tool's constants
+    (tmopt.mismatch.joint.INFLATION) at the tool's level."""
+    from tmopt.mismatch import calibration as cal
+    from tmopt.mismatch.joint import INFLATION
+
+    rows = [r for r in rows if not r["refused"]]
+    n = len(rows)
+    lines = [f"{n} clean recordings scored ({sum(r['backend'] == 'kernel' for r in rows)} "
+             f"kernel, {sum(r['backend'] == 'foreign' for r in rows)} foreign).", "",
+             "| family | tests | largest glr_alt (keys) | median glr_alt / glr_null | "
+             "smallest inflation, <= alpha n / 2 alarms |", "|---|---|---|---|---|"]  # fmt: skip
+    alpha = cal.FAMILY_ALPHA
+    screened = [screened_tests(r, alpha) for r in rows]
+    for fam in ("drift", "other"):
+        ts = [t for raw, _ in screened for t in raw if t["family"] == fam]
+        if not ts:
+            continue
+        big = max(ts, key=lambda t: t["glr_alt"])
+        ratio = np.median([t["glr_alt"] / max(t["glr_null"], 1e-9) for t in ts])
+        c = 1.0  # each family at half the level: the stage's alarms at most alpha n
+        while len(joint_alarms(rows, {fam: c}, alpha)) > alpha * n / 2 and c < 100:
+            c = round(c + 0.05, 2)
+        lines.append(f"| {fam} | {len(ts)} | {big['glr_alt']:.1f} ({big['keys']}) | "
+                     f"{ratio:.2f} | {c:.2f} |")  # fmt: skip
+    lines.append(f"\nRe-tested per recording (screened at alpha = {alpha:g}): "
+                 f"{sum(len(raw) for raw, _ in screened)} tests on {n} recordings, "
+                 f"{sum(bool(raw) for raw, _ in screened)} recordings with any; pairs the raw "
+                 f"rows lack: {sum(m for _, m in screened)}.")  # fmt: skip
+    lines.append("")
+    lines.append("| backend | false alarms of the joint stage, INFLATION = "
+                 f"{INFLATION}, alpha = {alpha:g} | 95 % interval |")
+    lines.append("|---|---|---|")
+    for b in ("kernel", "foreign", "both"):
+        sel = [r for r in rows if b in (r["backend"], "both")]
+        al = joint_alarms(sel, INFLATION, alpha)
+        lo, hi = clopper_pearson(len(al), len(sel))
+        lines.append(f"| {b} | {len(al)}/{len(sel)} | [{lo:.3f}, {hi:.3f}] |")
+    for a in joint_alarms(rows, INFLATION, alpha):
+        lines.append(f"- alarm: {a['backend']} {a['seed']} {a['keys']} ({a['family']}, "
+                     f"p = {a['p']:.3g})")  # fmt: skip
+    return "\n".join(lines) + "\n"
 
 
 if __name__ == "__main__":

@@ -40,7 +40,7 @@ see docs/mismatch.md, "Calibration").  They are constants here, not tuned per re
 from __future__ import annotations
 
 __all__ = ["FAMILY_ALPHA", "LOCATE_ALPHA", "AMBIGUOUS_DBIC", "ALIASED_R2", "LJUNG_BOX_LAGS",
-           "SHAPE_ALPHA", "MODEL_PRECISION"]
+           "SHAPE_ALPHA", "MODEL_PRECISION", "JOINT_INFLATION"]
 
 FAMILY_ALPHA: float = 0.01
 LOCATE_ALPHA: float = 0.01
@@ -49,3 +49,9 @@ ALIASED_R2: float = 0.5
 LJUNG_BOX_LAGS: int = 20
 SHAPE_ALPHA: float = 0.01
 MODEL_PRECISION: float = 0.05
+
+#: The joint stage's per-family inflation of its statistic under "no effect"
+#: (:mod:`tmopt.mismatch.joint`): the smallest factor at which the stage adds a name on at
+#: most FAMILY_ALPHA / 2 of clean flight-like recordings of both simulators, per family
+#: (``experiments/mismatch_calibration.py --realistic --joint``; docs/mismatch.md 9.9).
+JOINT_INFLATION: dict[str, float] = {"drift": 3.25, "other": 1.05}

@@ -73,6 +73,7 @@ class Settings:
     max_effects: int = 4
     noise: str = "coloured"
     generic: bool = True  # test unnamed features (tmopt.mismatch.generic) beside the catalogue
+    joint: bool = True  # re-test left-out candidates under the alternative (tmopt.mismatch.joint)
 
     def __post_init__(self) -> None:
         if not (0 < self.alpha < 1 and 0 < self.locate_alpha < 1):
@@ -995,6 +996,11 @@ def _select(data: Data, basis: np.ndarray, before: State, settings: Settings,
         if len(kept) < len(selected):
             selected = kept
             state = _rebuild(data, basis, [ev for ev, _ in kept], settings)
+    if settings.joint:  # issue 26.5: what the null's noise hid (tmopt.mismatch.joint)
+        from tmopt.mismatch import joint
+
+        selected, state = joint.extend(data, basis, state, selected, settings, tests, n_tests,
+                                       banned)  # fmt: skip
     return selected, steps, state, n_tests
 
 
