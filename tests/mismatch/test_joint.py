@@ -55,7 +55,7 @@ def test_a_clean_coloured_recording_gains_no_name_from_the_joint_stage():
     y1 drift whose statistic the alternative's noise lifts from 7.8 to 14.8 (a random-walk
     'ramp'); the drift family's calibrated null keeps it out, and nothing is named."""
     data = _recording("kernel", 610)
-    settings = Settings()
+    settings = Settings(joint=True)
     dg = diagnose(data, settings)
     assert not dg.selected, [ev.candidate.key for ev, _ in dg.selected]
     assert not dg.mismatch_detected
@@ -88,7 +88,7 @@ def test_a_weak_drift_beside_a_delay_is_named_by_the_joint_stage():
     effects = [Injection("actuation_delay", 0.2, "x1"), drift]
     without = diagnose(_recording(backend, seed, effects), Settings(joint=False))
     assert _names(without) == [("actuation_delay", "x1")]
-    with_stage = diagnose(_recording(backend, seed, effects), Settings())
+    with_stage = diagnose(_recording(backend, seed, effects), Settings(joint=True))
     assert _names(with_stage) == [("actuation_delay", "x1"), ("bias_drift", "x1")]
     assert not with_stage.misfits
     assert any(n.startswith("joint stage: bias_drift[x1]") for n in with_stage.data.notes)
