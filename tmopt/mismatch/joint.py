@@ -63,7 +63,7 @@ __all__ = ["DRIFT_LIKE", "INFLATION", "TOP", "PAIR_TOP", "MAX_ADDED", "family", 
 
 #: Effects whose columns are slow in time: their null distribution under the
 #: alternative's noise is inflated by the 1/f^2 acceleration noise (random-walk ramps).
-DRIFT_LIKE = frozenset({"bias_drift", "stiffness_drift"})
+DRIFT_LIKE = frozenset(name for name, e in EFFECTS.items() if e.slow_in_time)
 
 #: Per family, the factor by which ``L`` under the alternative's noise exceeds chi^2 in
 #: the upper tail on clean flight-like recordings (calibrated: docs/mismatch.md 9.9).

@@ -254,6 +254,9 @@ class Effect:
     calibration: ClassVar[Calibration | None] = None
     #: Noise-like: detectability is the expected excess power, not a matched filter.
     noise_like: ClassVar[bool] = False
+    #: Slow in time (a ramp): under coloured noise its statistic is inflated by the 1/f^2
+    #: acceleration noise's random-walk 'ramps' (the joint stage's drift family).
+    slow_in_time: ClassVar[bool] = False
 
     # ---- generator side ---------------------------------------------------------------
 

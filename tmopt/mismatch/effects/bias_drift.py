@@ -34,6 +34,7 @@ class BiasDrift(Effect):
     position = 6
     parameter, unit, limit, windowed = "fdot", "m s^-3", 1e-11, True
     plausible = 1e-10
+    slow_in_time = True
     explanation = ("the bias force on {ch} ({where}) drifts linearly during the run "
                    "(thermal gradients, charging, outgassing)")  # fmt: skip
     needs = "a longer run (the drift's signature grows with the duration squared)"

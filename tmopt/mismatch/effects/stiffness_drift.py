@@ -34,6 +34,7 @@ class StiffnessDrift(Effect):
     position = 5
     parameter, unit, limit, windowed = "kdot", "s^-3", 1e-8, True
     plausible = 1e-7
+    slow_in_time = True
     explanation = ("the stiffness of {ch} ({where}) drifts linearly during the run "
                    "(e.g. thermal or charge changes of the electrostatic stiffness)")  # fmt: skip
     needs = "a longer run with the excitation kept on throughout"
