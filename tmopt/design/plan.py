@@ -110,14 +110,10 @@ def ambiguous_of(dg) -> list[dict]:
     was read from a report.json), and one for each catalogue name within the band of a
     selected unnamed feature (:func:`feature_rivalries`)."""
     from tmopt.mismatch.diagnose import Diagnosis
-    from tmopt.mismatch.report import ambiguous_entries
+    from tmopt.mismatch.report import design_entries
 
     if isinstance(dg, Diagnosis):
-        rep = {"ambiguous": ambiguous_entries(dg), "features": [
-            {"feature": ev.candidate.fixed.get("feature"), "channel": ev.candidate.channel,
-             "alternatives": [{"name": a.candidate.effect, "channel": a.candidate.channel}
-                              for a in alts if a.candidate.effect in EFFECTS]}
-            for ev, alts in dg.features]}  # fmt: skip
+        rep = design_entries(dg)
     else:
         rep = {"ambiguous": getattr(dg, "ambiguous", []), "features": getattr(dg, "features", [])}
     return list(rep["ambiguous"]) + feature_rivalries(rep["features"], dg)

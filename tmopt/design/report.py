@@ -225,10 +225,11 @@ def plot(plan: Plan, rep: dict, path: Path) -> None:
     axes[1].legend(loc="upper right", fontsize=8)
     axes[0].set_title(f"proposed motion ({rep['duration_s']:g} s, noise-free closed loop)")
     names = [f"{x['effect']}\n[{x['channel']}]" for x in rep["targets"]]
-    ratio_b = [(x["se_before"] or np.inf) * rep["detection_threshold_z"] / x["plausible"]
-               for x in rep["targets"]]  # fmt: skip
-    ratio_a = [(x["se_after"] or np.inf) * rep["detection_threshold_z"] / x["plausible"]
-               for x in rep["targets"]]  # fmt: skip
+    # the standard error each target is judged by (an ambiguous name's at the selection
+    # step), so a bar below 1 is what ``detectable_*`` says
+    ratio_b, ratio_a = ([(x.get(f"se_selection_{when}") or x[f"se_{when}"] or np.inf)
+                         * rep["detection_threshold_z"] / x["plausible"]
+                         for x in rep["targets"]] for when in ("before", "after"))  # fmt: skip
     pos = np.arange(len(names))
     cap = 1e12
     axes[2].bar(pos - 0.2, np.minimum(ratio_b, cap), 0.4, label="recorded excitation")

@@ -518,14 +518,9 @@ def switch_series(data: Data, axis: int, lag: int = 0) -> np.ndarray:
     n - m - 2 lies in another segment."""
     n = data.kin_index
     f = data.force[axis]
-    if lag:
-        g = data.lagged(f, lag)
-        d2 = g[n] - 2.0 * g[n - 1] + g[n - 2]
-        d2[data.lagged(np.ones_like(f), lag + 2)[n] == 0] = 0.0
-        return -0.5 * data.dt**2 * d2
-    d2 = f[n] - 2.0 * f[n - 1] + f[n - 2]
-    first = np.concatenate([np.arange(a + 1, b - 1) == a + 1 for a, b in data.segments])
-    d2[first] = 0.0  # n - 2 is outside the segment
+    g = data.lagged(f, lag)
+    d2 = g[n] - 2.0 * g[n - 1] + g[n - 2]
+    d2[data.lagged(np.ones_like(f), lag + 2)[n] == 0] = 0.0  # n - lag - 2 in another segment
     return -0.5 * data.dt**2 * d2
 
 

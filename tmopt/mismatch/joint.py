@@ -1,5 +1,8 @@
 """Joint stage (issue 26, item 5): re-test the best candidates the greedy selection left
-out, with the coloured noise model re-estimated *under the alternative*.
+out, with the coloured noise model re-estimated *under the alternative*.  Opt-in
+(``Settings(joint=True)``, ``--joint``): on never-seen recordings five of its six
+additions were wrong, its null being calibrated on clean recordings only
+(docs/mismatch.md 9.7, "Ninth run").
 
 Why.  The selection (:mod:`tmopt.mismatch.diagnose`) estimates the equation group's
 noise spectrum from the current residual, i.e. under the null "no further effect".  An
@@ -29,8 +32,9 @@ flight-like recordings of both simulators (experiments/mismatch_calibration.py
 
 Each family's inflation ``c_f`` (:data:`INFLATION`) is the calibration's; a candidate is
 significant when ``p = min(1, m * trials * chi2_sf(L / c_f, dof)) < alpha`` with ``m``
-the number of candidates re-tested on the recording (Bonferroni over the stage's
-trials; ``trials`` the candidate's own search factor, as in the selection), and its
+the catalogue's multiplicity (:func:`trials`: the screen picks the re-tested ones from
+every candidate the selection tested; ``trials`` the candidate's own search factor, as
+in the selection), and its
 ``L / c_f - (dof + searched) ln n > 0`` (BIC, as the selection).  The best such candidate
 (largest BIC gain) is added to the model and the stage repeats (at most
 :data:`MAX_ADDED` additions); the selection's rules then judge it as any selected

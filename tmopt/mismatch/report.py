@@ -486,12 +486,16 @@ def _feature_of(cand) -> dict:
     return {"feature": kind} if kind is not None else {}
 
 
-def ambiguous_entries(dg: Diagnosis) -> list[dict]:
-    """The report's ``ambiguous`` entries of ``dg`` (effect entries with ``rivals``)
-    without building the whole report (the design tool's targets)."""
+def design_entries(dg: Diagnosis) -> dict:
+    """What the design tool reads of a report, without building the whole report: the
+    ``ambiguous`` entries (effect entries with ``rivals``) and, per selected unnamed
+    feature, its ``feature``, ``channel`` and named ``alternatives``."""
     if dg.refused is not None:
-        return []
-    return [e for e in _event_entries(dg) if e["rivals"]]
+        return {"ambiguous": [], "features": []}
+    return {"ambiguous": [e for e in _event_entries(dg) if e["rivals"]],
+            "features": [{"feature": ev.candidate.fixed.get("feature"),
+                          "channel": ev.candidate.channel, **_named_alternatives(alts)}
+                         for ev, alts in dg.features]}  # fmt: skip
 
 
 def _named_alternatives(alts) -> dict:
