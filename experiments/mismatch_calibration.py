@@ -69,6 +69,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--joint", action="store_true",
                    help="with --realistic: the joint stage's statistics under the alternative's "
                         "noise and its per-family inflation (tmopt/mismatch/joint.py; resumable)")
+    p.add_argument("--with-effects", action="store_true",
+                   help="with --joint: recordings that hold one catalogue effect (SNR 20 and "
+                        "60) or one out-of-catalogue effect, calibration seeds 21000 onwards; "
+                        "an addition whose name is not the truth's is a wrong addition")
     args = p.parse_args(argv)
     if args.n < 1 or args.jobs < 1:
         print("error: --n and --jobs must be >= 1", file=sys.stderr)
@@ -77,6 +81,9 @@ def main(argv: list[str] | None = None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     if args.joint and not args.realistic:
         print("error: --joint needs --realistic", file=sys.stderr)
+        return 2
+    if args.with_effects and not args.joint:
+        print("error: --with-effects needs --joint", file=sys.stderr)
         return 2
     if args.joint:
         return _joint(args, out)
@@ -147,22 +154,35 @@ def _realistic(args, out: Path) -> int:
 
 
 
-def joint_job(job: tuple[str, int]) -> dict:
-    """One clean realistic recording: the tool without its joint stage, then the joint
-    stage's re-tests of what it left out (tmopt.mismatch.joint.alt_statistics), raw."""
+def joint_job(job: tuple[str, int] | dict) -> dict:
+    """One realistic recording -- clean (``(backend, seed)``) or holding the effects of a
+    benchmark-style case (a dict, :func:`mismatch_realistic.build`) --: the tool without
+    its joint stage, then the joint stage's re-tests of what it left out
+    (tmopt.mismatch.joint.alt_statistics), raw.  ``truth``: the catalogue names injected
+    (none for clean and out-of-catalogue recordings)."""
     import time
+
+    from mismatch_realistic import build
 
     from tmopt.mismatch import joint
     from tmopt.mismatch.diagnose import Settings, diagnose, evaluate
     from tmopt.mismatch.fit import data_from_recording
     from tmopt.mismatch.realistic import draw_scenario, realistic_recording
 
-    backend, seed = job
+    case = job if isinstance(job, dict) else {"backend": job[0], "seed": job[1], "items": []}
+    backend, seed = case["backend"], case["seed"]
     t0 = time.process_time()
-    rec, _ = realistic_recording(draw_scenario(seed, backend), (), (), seed, backend)
+    if case["items"]:
+        sc, effects, ooc, _ = build(case)
+    else:
+        sc, effects, ooc = draw_scenario(seed, backend), [], []
+    rec, _ = realistic_recording(sc, effects, ooc, seed, backend)
     settings = Settings(joint=False)
     dg = diagnose(data_from_recording(rec), settings)
-    row = {"backend": backend, "seed": seed, "refused": dg.refused or "", "tests": []}
+    row = {"backend": backend, "seed": seed, "refused": dg.refused or "", "tests": [],
+           "category": case.get("category", "clean"),
+           "truth": sorted({e.name for e in effects}),
+           "items": [i.get("name") for i in case["items"]]}  # fmt: skip
     if dg.refused:
         return row
     chosen = {ev.candidate.key for ev, _ in dg.selected}
@@ -176,6 +196,31 @@ def joint_job(job: tuple[str, int]) -> dict:
                        "glr_alt": t.glr_alt, "dof": t.dof, "trials": t.trials,
                        "n_searched": t.n_searched, "n_obs": t.n_obs} for t in tests])
     return row
+
+
+#: First seed of the effect-holding calibration recordings (20000-20199: the clean ones).
+EFFECT_SEED_BASE = 21000
+
+
+def effect_jobs(n: int) -> list[dict]:
+    """``n`` rounds per simulator of: every catalogue effect at SNR 20 and 60 and every
+    out-of-catalogue effect, at the benchmark's SNRs (experiments/mismatch_realistic.py)
+    on calibration seeds from :data:`EFFECT_SEED_BASE` (never benchmark seeds)."""
+    from mismatch_realistic import SNR_LEVELS, SNR_OOC
+
+    from tmopt.mismatch.effects import EFFECT_NAMES
+    from tmopt.mismatch.realistic import OUT_OF_CATALOGUE
+
+    items = [[{"kind": "effect", "name": e, "snr": s}] for e in EFFECT_NAMES for s in SNR_LEVELS]
+    items += [[{"kind": "ooc", "name": o, "snr": SNR_OOC}] for o in OUT_OF_CATALOGUE]
+    jobs, seed = [], EFFECT_SEED_BASE
+    for _ in range(n):
+        for it in items:
+            for b in ("kernel", "foreign"):
+                cat = "catalogue" if it[0]["kind"] == "effect" else "out-of-catalogue"
+                jobs.append({"backend": b, "seed": seed, "category": cat, "items": it})
+            seed += 1
+    return jobs
 
 
 def screened_tests(row: dict, alpha: float) -> tuple[list[dict], int]:
@@ -202,9 +247,16 @@ def screened_tests(row: dict, alpha: float) -> tuple[list[dict], int]:
     return out, missing
 
 
-def joint_alarms(rows: list[dict], inflation: dict, alpha: float) -> list[dict]:
+def _key_name(key: str) -> str:
+    return key.split("[", 1)[0]
+
+
+def joint_alarms(rows: list[dict], inflation: dict, alpha: float,
+                 wrong_only: bool = True) -> list[dict]:  # fmt: skip
     """Recordings on which the joint stage would add something at ``inflation`` and
-    ``alpha`` (its first addition: any addition on a clean recording is a false alarm)."""
+    ``alpha`` (its first addition).  ``wrong``: a name the row's ``truth`` lacks -- any
+    addition on a clean or out-of-catalogue recording, a second name beside a single
+    catalogue effect; ``wrong_only``: only those."""
     from tmopt.mismatch.joint import JointTest, trials
 
     out = []
@@ -218,8 +270,11 @@ def joint_alarms(rows: list[dict], inflation: dict, alpha: float) -> list[dict]:
         hits = [(t, k) for t, k in hits if t.significant(alpha)]
         if hits:
             t, k = max(hits, key=lambda h: h[0].dbic)
-            out.append({"backend": r["backend"], "seed": r["seed"], "keys": k["keys"],
-                        "family": t.family, "p": t.p_value})  # fmt: skip
+            wrong = any(_key_name(key) not in r.get("truth", []) for key in k["keys"])
+            if wrong or not wrong_only:
+                out.append({"backend": r["backend"], "seed": r["seed"], "keys": k["keys"],
+                            "family": t.family, "p": t.p_value, "wrong": wrong,
+                            "items": r.get("items", [])})  # fmt: skip
     return out
 
 
@@ -229,23 +284,63 @@ def _joint(args, out: Path) -> int:
 
     from mismatch_realistic import calibration_jobs
 
-    path = out / "joint_rows.jsonl"
+    path = out / ("joint_effect_rows.jsonl" if args.with_effects else "joint_rows.jsonl")
     rows = [json.loads(x) for x in path.open()] if path.exists() else []
     done = {(r["backend"], r["seed"]) for r in rows}
-    jobs = [j for j in calibration_jobs(args.n) if j not in done]
+    jobs = effect_jobs(args.n) if args.with_effects else calibration_jobs(args.n)
+    jobs = [j for j in jobs if _job_key(j) not in done]
     with mp.get_context("spawn").Pool(args.jobs) as pool, path.open("a") as fh:
         for i, r in enumerate(pool.imap(joint_job, jobs), start=1):
             rows.append(r)
             fh.write(json.dumps(r) + "\n")
             fh.flush()
             best = max(r["tests"], key=lambda t: t["glr_alt"], default=None)
-            print(f"[{i}/{len(jobs)}] {r['backend']} {r['seed']}: selected "
+            print(f"[{i}/{len(jobs)}] {r['backend']} {r['seed']} {r.get('items', [])}: selected "
                   f"{r.get('selected')}, largest glr_alt "
                   f"{best and (best['keys'], round(best['glr_alt'], 1))}", flush=True)  # fmt: skip
-    text = joint_summary(rows)
-    (out / "joint_summary.md").write_text(text)
+    text = joint_effect_summary(rows) if args.with_effects else joint_summary(rows)
+    name = "joint_effect_summary.md" if args.with_effects else "joint_summary.md"
+    (out / name).write_text(text)
     print(text)
     return 0
+
+
+def _job_key(job: tuple[str, int] | dict) -> tuple[str, int]:
+    return (job["backend"], job["seed"]) if isinstance(job, dict) else tuple(job)
+
+
+def joint_effect_summary(rows: list[dict]) -> str:
+    """On recordings that hold one effect: the joint stage's additions at the tool's
+    constants (right: a catalogue name the selection missed; wrong: any other), and per
+    family the smallest inflation at which its wrong additions are at most ``alpha n / 2``
+    (the clean calibration's rule, section 9.9, with wrong additions for false alarms)."""
+    from tmopt.mismatch import calibration as cal
+    from tmopt.mismatch.joint import INFLATION
+
+    rows = [r for r in rows if not r["refused"]]
+    n, alpha = len(rows), cal.FAMILY_ALPHA
+    lines = [f"{n} recordings with one effect scored "
+             f"({sum(r['category'] == 'catalogue' for r in rows)} catalogue, "
+             f"{sum(r['category'] == 'out-of-catalogue' for r in rows)} out of catalogue; "
+             f"{sum(r['backend'] == 'kernel' for r in rows)} kernel).", "",
+             "| family | smallest inflation, wrong additions <= alpha n / 2 | wrong additions "
+             "at the tool's constant | right additions at it |", "|---|---|---|---|"]  # fmt: skip
+    for fam in ("drift", "other"):
+        c = 1.0
+        while len(joint_alarms(rows, {fam: c}, alpha)) > alpha * n / 2 and c < 100:
+            c = round(c + 0.05, 2)
+        at = joint_alarms(rows, {fam: INFLATION[fam]}, alpha, wrong_only=False)
+        lines.append(f"| {fam} | {c:.2f} | {sum(a['wrong'] for a in at)} | "
+                     f"{sum(not a['wrong'] for a in at)} |")  # fmt: skip
+    at = joint_alarms(rows, INFLATION, alpha, wrong_only=False)
+    lo, hi = clopper_pearson(sum(a["wrong"] for a in at), n)
+    lines += ["", f"At INFLATION = {INFLATION}, alpha = {alpha:g}: "
+              f"{sum(a['wrong'] for a in at)}/{n} wrong additions (95 % interval "
+              f"[{lo:.3f}, {hi:.3f}]), {sum(not a['wrong'] for a in at)} right."]  # fmt: skip
+    for a in at:
+        lines.append(f"- {'WRONG' if a['wrong'] else 'right'}: {a['backend']} {a['seed']} "
+                     f"{a['items']} + {a['keys']} ({a['family']}, p = {a['p']:.3g})")
+    return "\n".join(lines) + "\n"
 
 
 def joint_summary(rows: list[dict]) -> str:
