@@ -40,7 +40,7 @@ see docs/mismatch.md, "Calibration").  They are constants here, not tuned per re
 from __future__ import annotations
 
 __all__ = ["FAMILY_ALPHA", "LOCATE_ALPHA", "AMBIGUOUS_DBIC", "ALIASED_R2", "LJUNG_BOX_LAGS",
-           "SHAPE_ALPHA", "MODEL_PRECISION", "JOINT_INFLATION"]
+           "SHAPE_ALPHA", "MODEL_PRECISION", "JOINT_INFLATION", "KIN_STIFFNESS_VISIBLE"]
 
 FAMILY_ALPHA: float = 0.01
 LOCATE_ALPHA: float = 0.01
@@ -55,3 +55,10 @@ MODEL_PRECISION: float = 0.05
 #: most FAMILY_ALPHA / 2 of clean flight-like recordings of both simulators, per family
 #: (``experiments/mismatch_calibration.py --realistic --joint``; docs/mismatch.md 9.9).
 JOINT_INFLATION: dict[str, float] = {"drift": 3.25, "other": 1.05}
+
+#: When the final model's stiffness changes the exact kinematic relation by at least this
+#: energy in units of an axis' kinematic noise variance -- the statistic a column of that
+#: size would reach under white noise: 1 is a one-sigma signal --, the diagnosis is redone
+#: with it (:func:`tmopt.mismatch.diagnose._kinematic_stiffness_change`; docs 9.12).  Not
+#: tuned: below one sigma the change cannot move a test; above it, redoing costs only time.
+KIN_STIFFNESS_VISIBLE: float = 1.0
