@@ -1,4 +1,4 @@
-"""The exact kinematics takes the final model's stiffness (docs/mismatch.md 9.12).
+"""The exact kinematics takes the final model's stiffness (docs/mismatch.md 9.4).
 
 The exact ZOH relation between readouts and accelerometer (9.4) needs the stiffness k.
 It came from the nominal fit of Eq. 10, which an equation-group effect in step with the

@@ -948,7 +948,7 @@ def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
             break
         stiffness, shift = change
         moved.append(shift)
-    if moved and not dg.refused:  # the exact kinematics used the final model's k (9.12)
+    if moved and not dg.refused:  # the exact kinematics used the final model's k (9.4)
         dg.data.notes.append(
             "kinematic check: the stiffness of the exact ZOH relation re-estimated with the "
             "selected effects and the diagnosis redone (" + "; then ".join(moved) + ")")
