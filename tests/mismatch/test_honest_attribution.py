@@ -107,7 +107,15 @@ def test_the_dac_step_is_found_to_the_precision_its_sawtooth_needs(seed, axis, s
     q, _ = EFFECTS["actuation_quantisation"].search(
         Context(data, basis, state.eq_fit.residual, state.eq_noise))
     q_true = truth["effects"][0]["parameters"]["q"]
-    assert abs(q / q_true - 1) < 3e-5, (q, q_true)
+    # what the precision is for: across the force range (max |u|/q steps) q's relative
+    # error accumulates to a fraction of one step, which must stay small (< 1 %) for the
+    # sawtooth to be right at every command.  (The former bound, 3e-5 relative, passed in
+    # CI at 565ad3a and failed at the same commit in a fresh environment with the locked
+    # library versions (stop 35; floating-point order): seed 502 gave 4.1e-5, i.e. 0.2 %
+    # of a step over its 46 steps, and the full diagnosis still names the quantisation
+    # alone.  Seed 501's old 2e-4 over 186 steps is 3.7 %: still a failure.)
+    steps = float(np.nanmax(np.abs(data.force))) / q_true
+    assert abs(q / q_true - 1) * steps < 0.01, (q, q_true, steps)
 
 
 def test_a_slow_curved_bias_change_is_not_named_a_linear_drift():
