@@ -167,16 +167,22 @@ def joint_job(job: tuple[str, int] | dict) -> dict:
     from tmopt.mismatch import joint
     from tmopt.mismatch.diagnose import Settings, diagnose, evaluate
     from tmopt.mismatch.fit import data_from_recording
+    from tmopt.mismatch.generate import GenerationError
     from tmopt.mismatch.realistic import draw_scenario, realistic_recording
 
     case = job if isinstance(job, dict) else {"backend": job[0], "seed": job[1], "items": []}
     backend, seed = case["backend"], case["seed"]
     t0 = time.process_time()
-    if case["items"]:
-        sc, effects, ooc, _ = build(case)
-    else:
-        sc, effects, ooc = draw_scenario(seed, backend), [], []
-    rec, _ = realistic_recording(sc, effects, ooc, seed, backend)
+    try:
+        if case["items"]:
+            sc, effects, ooc, _ = build(case)
+        else:
+            sc, effects, ooc = draw_scenario(seed, backend), [], []
+        rec, _ = realistic_recording(sc, effects, ooc, seed, backend)
+    except GenerationError as exc:  # a diverged loop: kept as a row, never scored
+        return {"backend": backend, "seed": seed, "refused": f"generation: {exc}",
+                "tests": [], "category": case.get("category", "clean"), "truth": [],
+                "items": [i.get("name") for i in case["items"]]}  # fmt: skip
     settings = Settings(joint=False)
     dg = diagnose(data_from_recording(rec), settings)
     row = {"backend": backend, "seed": seed, "refused": dg.refused or "", "tests": [],
