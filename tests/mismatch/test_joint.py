@@ -50,6 +50,7 @@ def _names(dg) -> list[tuple[str, str]]:
     return sorted((e["name"], e["channel"]) for e in build_report(dg)["effects"])
 
 
+@pytest.mark.slow  # the stage is opt-in since stop 34; its null: mismatch_calibration --joint
 def test_a_clean_coloured_recording_gains_no_name_from_the_joint_stage():
     """Kernel seed 610 (33 min at 8 Hz, 1/f^2 acceleration noise): the stage re-tests a
     y1 drift whose statistic the alternative's noise lifts from 7.8 to 14.8 (a random-walk
