@@ -59,6 +59,6 @@ JOINT_INFLATION: dict[str, float] = {"drift": 3.25, "other": 1.05}
 #: When the final model's stiffness changes the exact kinematic relation by at least this
 #: energy in units of an axis' kinematic noise variance -- the statistic a column of that
 #: size would reach under white noise: 1 is a one-sigma signal --, the diagnosis is redone
-#: with it (:func:`tmopt.mismatch.diagnose._kinematic_stiffness_change`; docs/mismatch.md 9.4).  Not
+#: with it (:func:`tmopt.mismatch.diagnose._final_model_kinematics`; docs/mismatch.md 9.4).  Not
 #: tuned: below one sigma the change cannot move a test; above it, redoing costs only time.
 KIN_STIFFNESS_VISIBLE: float = 1.0

@@ -41,6 +41,7 @@ each segment separately (:class:`tmopt.mismatch.noise_model.Layout`).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -695,7 +696,8 @@ def align_kinematics(data: Data, max_lag: int = 2) -> Data:
     return out
 
 
-def choose_acc_convention(data: Data, k: np.ndarray) -> tuple[str, dict]:
+def choose_acc_convention(data: Data, k: np.ndarray,
+                          nuisance: Sequence[Column] = ()) -> tuple[str, dict]:  # fmt: skip
     """Which accelerometer sampling convention the recording follows (``held`` or ``mean``).
 
     ``held`` (``a_n = k r(t_n) + u_n``) and ``mean`` (the mean over ``[t_n, t_{n+1})``)
@@ -711,6 +713,9 @@ def choose_acc_convention(data: Data, k: np.ndarray) -> tuple[str, dict]:
     ``|LR| < DECIDE_LR`` the data cannot tell (the difference is below the noise) and the
     kinematic evidence decides (:func:`_kinematic_convention`); failing that, ``held``.
     The recording's ``acc_sampling`` attribute, when present, decides instead.
+    ``nuisance``: further Eq. 10 columns in both fits -- the selected effects' when the
+    diagnosis redoes its kinematics with the final model (an unmodelled gain or coupling
+    in step with the motion otherwise decides between the two stiffness terms).
     """
     if data.usage.get("acc_convention_from") == "attribute":
         return data.acc_convention, {"from": "attribute"}
@@ -727,6 +732,7 @@ def choose_acc_convention(data: Data, k: np.ndarray) -> tuple[str, dict]:
             probe.__dict__.pop("_x_eq", None)
             cols = nominal_equation_columns(probe, basis)
             cols += _step_mean_columns(probe, basis) if delay else []
+            cols += list(nuisance)
             fit = solve(equation_target(probe, basis), cols, lambda v: v)
             rss[conv] = float(np.sum(fit.residual**2))
         lr = n_obs * math.log(max(rss["held"], 1e-300) / max(rss["mean"], 1e-300))
