@@ -109,6 +109,11 @@ def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
     # once its stiffness drift of 10 s^-2 was out, as a cross-coupling y1<-x1)
     out += [{"name": f"explanation beyond physics taken out ({b['key']})",
              "channel": b["channel"], "delta_bic": None} for b in dg.beyond]  # fmt: skip
+    # a measured channel at a rail (an ADC saturating): the fit read clipped samples as
+    # measurements, and through the loop on every axis (a clipped accelerometer was named
+    # a DAC quantisation of all axes: k40137, k50136), so no name is more than part of it
+    out += [{"name": f"saturated {s['channel']} ({s['samples']} samples at its rail)",
+             "channel": s["axis"], "delta_bic": None} for s in dg.saturated]  # fmt: skip
     mine = _axes(ev.candidate.channel)
     kin = ev.candidate.group == "kinematic"  # its structure is in the readout residual
     left = [c for c in dg.locations_after.channels
@@ -139,6 +144,9 @@ def _unexplained_at(dg: Diagnosis, rep: dict) -> dict:
             loc["channels"].append(a["channel"])
     # an explanation beyond physics, taken out: its residual channel (the axis's force
     # equation, or the axis's readout for a kinematic one) is unexplained
+    for s in dg.saturated:  # a measured channel at a rail: its axis
+        if s["axis"] not in loc["channels"]:
+            loc["channels"].append(s["axis"])
     for b in dg.beyond:
         suffix = " readout" if b["group"] == "kinematic" else ""
         for a in sorted(_axes(b["channel"])) or [b["channel"]]:
@@ -238,6 +246,9 @@ def _refused_report(dg: Diagnosis) -> dict:
         "notes": list(dg.data.notes),
         "settings": _settings(dg),
     }  # fmt: skip
+    if dg.saturated:  # a measured channel at its rail: what is known to be wrong, and where
+        rep["mismatch_detected"] = rep["unexplained"] = True
+        rep["unexplained_at"]["channels"] = sorted({s["axis"] for s in dg.saturated})
     rep["conclusion"] = conclusion(rep)
     return rep
 
