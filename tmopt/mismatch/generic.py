@@ -46,10 +46,15 @@ import numpy as np
 from tmopt.mismatch.effects.base import TMS, Candidate, Context
 from tmopt.mismatch.fit import AXES, Column, axis_column
 
-__all__ = ["GENERIC", "candidates", "N_ONSETS"]
+__all__ = ["GENERIC", "candidates", "N_ONSETS", "NONLINEAR_KINDS"]
 
 #: The unnamed features' label in candidates and reports.
 GENERIC = "unexplained"
+#: The nonlinear and product forces (:func:`_nonlinear`, :func:`_products`): their lines
+#: (harmonics, intermodulation, ``f_x +- f_y``) on an axis are partly what a linear
+#: two-axis coupling of that axis fits (report rival, docs/mismatch.md 9.10).
+X_ABS, X_SQUARED, F_ABS, XY_PRODUCT = "x|x| force", "x^2 force", "f|f| actuation", "x*y product"
+NONLINEAR_KINDS = (X_ABS, X_SQUARED, F_ABS, XY_PRODUCT)
 #: Onsets on the coarse grid (5 %..95 % of the record), then refined between neighbours.
 N_ONSETS = 48
 N_REFINE = 9
@@ -327,11 +332,11 @@ def _nonlinear(ctx: Context) -> list[Candidate]:
     for a in range(4):
         x, f = d.x_eq[a], d.force[a]
         out += [
-            _series_candidate(ctx, a, "x|x| force", x * np.abs(x), "m^-1 s^-2",
+            _series_candidate(ctx, a, X_ABS, x * np.abs(x), "m^-1 s^-2",
                               "a nonlinear force kappa x|x| (not the catalogue's cubic)"),
-            _series_candidate(ctx, a, "x^2 force", x**2, "m^-1 s^-2",
+            _series_candidate(ctx, a, X_SQUARED, x**2, "m^-1 s^-2",
                               "a quadratic (even) stiffness term x^2"),
-            _series_candidate(ctx, a, "f|f| actuation", f * np.abs(f), "s^2 m^-1",
+            _series_candidate(ctx, a, F_ABS, f * np.abs(f), "s^2 m^-1",
                               "a nonlinear actuation term f|f|"),
         ]  # fmt: skip
     return out
@@ -344,7 +349,7 @@ def _products(ctx: Context) -> list[Candidate]:
     for a, b in ((0, 2), (1, 3)):  # (x1, y1), (x2, y2)
         xy = d.x_eq[a] * d.x_eq[b]
         for on in (a, b):
-            out.append(_series_candidate(ctx, on, "x*y product", xy, "m^-1 s^-2",
+            out.append(_series_candidate(ctx, on, XY_PRODUCT, xy, "m^-1 s^-2",
                                          f"a bilinear coupling {AXES[a]}*{AXES[b]} (lines at "
                                          "f_x +- f_y)"))  # fmt: skip
     return out

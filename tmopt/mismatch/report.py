@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from tmopt.mismatch import calibration as cal
+from tmopt.mismatch import generic
 from tmopt.mismatch.diagnose import (
     Diagnosis,
     State,
@@ -63,6 +64,11 @@ def _axes(channel: str) -> set[str]:
     return set(re.findall(r"[xy][12]", channel))
 
 
+#: A two-axis coupling is ambiguous beside a nonlinear or product feature on one of its
+#: axes (docs/mismatch.md 9.10).
+COUPLING_RIVALS = True
+
+
 def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
     """Why a selected effect's name is not a confident one (empty: it is):
 
@@ -87,6 +93,17 @@ def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
     out += [{"name": f.candidate.effect, "channel": f.candidate.channel, "delta_bic": f.dbic,
              **_feature_of(f.candidate)}
             for f, _ in dg.features if f.candidate.channel == ev.candidate.channel]  # fmt: skip
+    # a nonlinear or product force selected on an axis of a two-axis coupling (a
+    # cross-talk, a cross-coupling): its lines are partly a linear coupling's, so the
+    # coupling may be its remainder (u|u| on x2 beside a cross-talk y2<-x2, k40125; x2*y2
+    # beside a cross-talk x2<-y2, k50114)
+    mine = _axes(ev.candidate.channel)
+    if COUPLING_RIVALS and len(mine) == 2:
+        out += [{"name": f.candidate.effect, "channel": f.candidate.channel,
+                 "delta_bic": f.dbic, **_feature_of(f.candidate)}
+                for f, _ in dg.features
+                if f.candidate.fixed.get("feature") in generic.NONLINEAR_KINDS
+                and _axes(f.candidate.channel) & mine]  # fmt: skip
     out += [{"name": "shape misfit (its residual needs a curvature: "
                      "not the effect's shape)", "channel": m["channel"], "delta_bic": None,
              "glr": m["glr"], "p_value": m["p_value"]}
