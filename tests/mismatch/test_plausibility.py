@@ -253,3 +253,44 @@ def test_each_axis_force_follows_its_own_readout(bases):
         assert swapped.status == "fail", swapped.detail
         assert "force on x1 follows the" in swapped.detail and "y1" in swapped.detail, \
             swapped.detail  # fmt: skip
+
+
+def test_a_rail_is_found_only_where_a_clip_piles_samples_on_one_value():
+    """An ADC at its rail holds many samples at exactly its extreme value; a continuous
+    reading never repeats one, and a uniformly quantised one holds fewest samples in its
+    outermost codes (docs/mismatch.md 9.10)."""
+    from tmopt.mismatch.plausibility import rail_mask
+
+    rng = np.random.default_rng(7)
+    v = rng.standard_normal(20000)
+    assert rail_mask(v)[1] == []
+    assert rail_mask(np.round(v / 0.05) * 0.05)[1] == []  # a fine quantiser: tails thin
+    assert rail_mask(np.round(v))[1] == []  # a coarse one (5 codes each side): still thin
+    level = float(np.quantile(np.abs(v), 0.9))
+    mask, levels = rail_mask(np.clip(v, -level, level))
+    assert levels == [-level, level]
+    assert mask.sum() == np.sum(np.abs(v) >= level)
+    mask, levels = rail_mask(np.minimum(v, level))  # one rail only
+    assert levels == [level] and mask.sum() == np.sum(v >= level)
+
+
+def test_a_clipped_accelerometer_is_unexplained_at_its_axis_not_refused_as_swapped():
+    """The benchmark's foreign recording 50135 (a set already read, r7), acc_x1 clipped
+    at its 90 % quantile while the commands reach 11x that level: over all samples the
+    slope of acc on force was 0.25 and the recording was refused as 'unrelated, swapped
+    or rescaled channels' (at bcb5c72).  Without the rail samples the relation holds; the
+    saturation is reported at x1.  (Development seeds 517/518 clip less deeply: they
+    passed the check before too.)"""
+    from tmopt.mismatch.plausibility import check_force_acc, check_saturation
+    from tmopt.mismatch.realistic import OUT_OF_CATALOGUE, make_ooc
+
+    assert "acc_clipping" in OUT_OF_CATALOGUE
+    seed, backend = 50135, "foreign"
+    sc = draw_scenario(seed, backend)
+    rec, _ = realistic_recording(sc, [], [make_ooc("acc_clipping", 0.9, "x1", seed, sc)],
+                                 seed, backend)  # fmt: skip
+    data = data_from_recording(rec)
+    sat = check_saturation(data)
+    assert sat.status == "unknown"
+    assert [s["channel"] for s in sat.values["saturated"]] == ["acc_x1"], sat.detail
+    assert check_force_acc(data).status != "fail"

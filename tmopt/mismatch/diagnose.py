@@ -56,7 +56,7 @@ from tmopt.mismatch.fit import (
 )
 from tmopt.mismatch.locate import Locations, locate
 from tmopt.mismatch.noise_model import RED_EXPONENTS, NoiseModel, fit_red
-from tmopt.mismatch.plausibility import Verdict, implausible_effects, precheck
+from tmopt.mismatch.plausibility import Verdict, implausible_effects, precheck, saturations
 
 __all__ = ["Settings", "Evaluation", "State", "Diagnosis", "diagnose", "fit_state"]
 
@@ -153,6 +153,9 @@ class Diagnosis:
     #: Explanations beyond physics taken out of the selection (``{"key", "channel",
     #: "group", "reason"}``): their channels are unexplained.
     beyond: list[dict] = field(default_factory=list)
+    #: Measured channels pinned at a rail (:func:`tmopt.mismatch.plausibility.saturations`):
+    #: their axes are unexplained and no name is more than part of the story.
+    saturated: list[dict] = field(default_factory=list)
 
     @property
     def effects(self) -> list[tuple[Evaluation, list[Evaluation]]]:
@@ -171,7 +174,7 @@ class Diagnosis:
         (:func:`weak_names`) -- its channel is then reported in ``unexplained_at``."""
         return self.refused is None and (self.locations_after.any or bool(self.features)
                                          or bool(self.misfits) or bool(self.weak)
-                                         or bool(self.beyond))
+                                         or bool(self.beyond) or bool(self.saturated))
 
     @property
     def mismatch_detected(self) -> bool | None:
@@ -897,9 +900,17 @@ def _implausible(state: State, selected: list) -> tuple[Candidate, str] | None:
 
 
 def _refused(data: Data, settings: Settings, verdict: Verdict, reason: str) -> Diagnosis:
+    """A refusal; a measured channel at a rail (:func:`saturations`) is named as the
+    likely cause and its axis kept as unexplained (a clipped accelerometer breaks Eq. 10
+    on its axis: the refusal's slope or implausible size follows from it)."""
+    sat = saturations(data)
+    if sat:
+        reason += " (" + "; ".join(f"{s['channel']} sits at its rail on {s['fraction']:.1%} "
+                                   "of its samples" for s in sat) + ": a saturated sensor)"
     return Diagnosis(data=data, basis=None, before=None, after=None, selected=[],
                      locations=Locations(), locations_after=Locations(), not_identifiable=[],
-                     settings=settings, verdict=verdict, refused=reason)  # fmt: skip
+                     settings=settings, verdict=verdict, refused=reason,
+                     saturated=sat)  # fmt: skip
 
 
 def prepare(data: Data, stiffness: np.ndarray | None = None,
@@ -1034,7 +1045,7 @@ def _diagnose_prepared(data: Data, basis: np.ndarray, settings: Settings,
         not_identifiable=identifiability(data, basis, before, settings, n_tests),
         settings=settings, steps=steps, verdict=verdict,
         misfits=shape_misfits(data, basis, state, selected),
-        weak=weak_names(selected), beyond=beyond,
+        weak=weak_names(selected), beyond=beyond, saturated=saturations(data),
     )  # fmt: skip
 
 

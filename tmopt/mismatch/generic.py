@@ -46,10 +46,15 @@ import numpy as np
 from tmopt.mismatch.effects.base import TMS, Candidate, Context
 from tmopt.mismatch.fit import AXES, Column, axis_column
 
-__all__ = ["GENERIC", "candidates", "N_ONSETS"]
+__all__ = ["GENERIC", "candidates", "N_ONSETS", "NONLINEAR_KINDS"]
 
 #: The unnamed features' label in candidates and reports.
 GENERIC = "unexplained"
+#: The nonlinear and product forces (:func:`_nonlinear`, :func:`_products`): their lines
+#: (harmonics, intermodulation, ``f_x +- f_y``) on an axis are partly what a linear
+#: two-axis coupling of that axis fits (report rival, docs/mismatch.md 9.10).
+X_ABS, X_SQUARED, F_ABS, XY_PRODUCT = "x|x| force", "x^2 force", "f|f| actuation", "x*y product"
+NONLINEAR_KINDS = (X_ABS, X_SQUARED, F_ABS, XY_PRODUCT)
 #: Onsets on the coarse grid (5 %..95 % of the record), then refined between neighbours.
 N_ONSETS = 48
 N_REFINE = 9
@@ -60,9 +65,11 @@ def _stat(e: np.ndarray, t: np.ndarray) -> float:
     return float(np.sum(e * t)) ** 2 / energy if energy > 0 else 0.0
 
 
-def _onset_search(ctx: Context, shape) -> list[tuple[float, int, float]]:
+def _onset_search(ctx: Context, shape, base=None) -> list[tuple[float, int, float]]:
     """Best onset per axis of a one-column template ``shape(axis, t0)`` (series (N,)):
-    (statistic, axis, t0)."""
+    (statistic, axis, t0).  With :data:`FINE_ONSETS` and ``base`` (``base(axis)``: the
+    series the step multiplies, so that ``shape(a, t0) = base(a) H(t - t0)``) the onset is
+    then searched at every sample and between samples (:func:`_fine_onset`)."""
     d = ctx.data
     e = ctx.eq_noise.whiten(ctx.eq_residual)
     t_lo, t_hi = d.time[0], d.time[-1]
@@ -71,8 +78,11 @@ def _onset_search(ctx: Context, shape) -> list[tuple[float, int, float]]:
     out = []
     for a in range(4):
         best = (-1.0, grid[0])
+        energy = []
         for t0 in grid:
-            lam = _stat(e, ctx.eq_noise.whiten(axis_column(ctx.basis, a, shape(a, t0))))
+            w = ctx.eq_noise.whiten(axis_column(ctx.basis, a, shape(a, t0)))
+            energy.append(float(np.sum(w**2)))
+            lam = _stat(e, w)
             if lam > best[0]:
                 best = (lam, t0)
         for t0 in best[1] + step * np.linspace(-1, 1, N_REFINE):
@@ -81,8 +91,72 @@ def _onset_search(ctx: Context, shape) -> list[tuple[float, int, float]]:
             lam = _stat(e, ctx.eq_noise.whiten(axis_column(ctx.basis, a, shape(a, t0))))
             if lam > best[0]:
                 best = (lam, float(t0))
+        if FINE_ONSETS and base is not None:
+            best = max(best, _fine_onset(ctx, e, a, shape, base(a), grid, np.array(energy)))
         out.append((best[0], a, float(best[1])))
     return out
+
+
+#: Onsets of the step features searched at every sample and between samples (round r7
+#: study, docs/mismatch.md 9.10): under a steep coloured noise model a whitened step is
+#: nearly a spike at its onset, and its statistic falls from 1644 at the true onset to 57
+#: three seconds off (foreign 50112; a stiffness step, foreign 40131: 3301 to 3.4), while
+#: the coarse grid is ~10-40 s apart -- the step feature never competed and a glitch with a
+#: 362 s decay plus a drift took its place.  Off: not yet checked on never-seen recordings.
+FINE_ONSETS = False
+#: Sub-sample onsets tried between two samples (the force averaged over each sample).
+N_FRACTIONS = 8
+#: Best approximate onsets per axis re-evaluated exactly.
+N_FINE_PEAKS = 3
+
+
+def _adjoint_whiten(noise, arr: np.ndarray) -> np.ndarray:
+    """``W' arr`` for ``W`` = ``noise.whiten`` (per segment: taper, transform, the
+    per-frequency factor, back; its adjoint takes the conjugate-transposed factor and the
+    taper last).  Used to search onsets only; the statistic is recomputed with ``whiten``."""
+    from tmopt.mismatch.noise_model import taper
+
+    if noise.kind == "white" and not noise.red:
+        return np.linalg.solve(np.linalg.cholesky(noise.cov).T, arr)
+    out = np.zeros(arr.shape)
+    for a, b in noise.layout.bounds:
+        m = b - a
+        win = taper(m, noise.taper_fraction) if noise.tapered else np.ones(m)
+        yf = np.fft.rfft(arr[:, a:b], axis=1)
+        xf = np.einsum("fji,jf->if", noise._whitener(m).conj(), yf)
+        out[:, a:b] = np.fft.irfft(xf, n=m, axis=1) * win
+    return out
+
+
+def _fine_onset(ctx: Context, e: np.ndarray, a: int, shape, base: np.ndarray,
+                grid: np.ndarray, energy: np.ndarray) -> tuple[float, float]:
+    """Best onset of ``base H(t - t0)`` on axis ``a`` at sample resolution and between
+    samples: the matched statistic's numerator at every sample onset is a reverse
+    cumulative sum of ``base x (N' W' e)`` (exact, one adjoint whitening), its
+    denominator interpolated from the coarse grid's ``energy``; the best
+    :data:`N_FINE_PEAKS` are re-evaluated exactly with ``shape`` at :data:`N_FRACTIONS`
+    sub-sample onsets before each.  ``(statistic, t0)``."""
+    d = ctx.data
+    t, h = d.time, d.dt
+    g = ctx.basis[a] @ _adjoint_whiten(ctx.eq_noise, e)
+    num = np.cumsum((base * g)[::-1])[::-1]
+    approx = num**2 / np.maximum(np.interp(t, grid, energy), 1e-300)
+    inside = (t > grid[0] - (grid[1] - grid[0])) & (t < grid[-1] + (grid[1] - grid[0]))
+    approx[~inside] = 0.0
+    best = (-1.0, float(t[0]))
+    taken: list[int] = []
+    for n in np.argsort(approx)[::-1]:
+        if len(taken) >= N_FINE_PEAKS:
+            break
+        if any(abs(int(n) - k) < 8 for k in taken):
+            continue
+        taken.append(int(n))
+        for frac in np.arange(N_FRACTIONS) / N_FRACTIONS:
+            t0 = float(t[n] - frac * h)
+            lam = _stat(e, ctx.eq_noise.whiten(axis_column(ctx.basis, a, shape(a, t0))))
+            if lam > best[0]:
+                best = (lam, t0)
+    return best
 
 
 def _onset_candidates(ctx: Context, kind: str, shape, words: str,
@@ -95,19 +169,34 @@ def _onset_candidates(ctx: Context, kind: str, shape, words: str,
         return []
     col = Column(f"{GENERIC}:{kind}[{AXES[a]}]", axis_column(ctx.basis, a, shape(a, t0)))
     return [Candidate(GENERIC, AXES[a], "equation", [kind], ["-"], [col], None,
-                      trials=4.0 * (N_ONSETS + N_REFINE), fixed={"feature": kind, "t0_s": t0},
+                      trials=_onset_trials(ctx.data.n), fixed={"feature": kind, "t0_s": t0},
                       n_searched=1,
                       text=words.format(ch=AXES[a], where=TMS[AXES[a]], t0=t0))]  # fmt: skip
 
 
+def _step_shape(t: np.ndarray, h: float, t0: float) -> np.ndarray:
+    """``H(t - t0)``; with :data:`FINE_ONSETS` averaged over each sample ``[t_n, t_n + h)``
+    (equal to the sampled step when ``t0`` is a sample time), so an onset between samples
+    has its fractional first sample."""
+    if FINE_ONSETS:
+        return np.clip((t + h - t0) / h, 0.0, 1.0)
+    return (t >= t0).astype(float)
+
+
+def _onset_trials(n: int) -> float:
+    """Onsets tried per axis: the coarse grid and its refinement, and with
+    :data:`FINE_ONSETS` every sample times the sub-sample fractions."""
+    return 4.0 * (N_ONSETS + N_REFINE + (n * N_FRACTIONS if FINE_ONSETS else 0))
+
+
 def _steps(ctx: Context) -> list[Candidate]:
     """The best lasting force step, and the best relaxation around the steps found."""
-    t = ctx.data.time
+    t, h = ctx.data.time, ctx.data.dt
 
     def step(a: int, t0: float) -> np.ndarray:
-        return (t >= t0).astype(float)
+        return _step_shape(t, h, t0)
 
-    found = _onset_search(ctx, step)
+    found = _onset_search(ctx, step, lambda a: np.ones(t.size))
     return _onset_candidates(
         ctx, "step", step,
         "unexplained: a lasting step of the force on {ch} ({where}) at t = {t0:.1f} s "
@@ -159,11 +248,16 @@ def _relaxations(ctx: Context, found: list[tuple[float, int, float]]) -> list[Ca
 
 
 def _stiffness_steps(ctx: Context) -> list[Candidate]:
-    t, x = ctx.data.time, ctx.data.x_eq
+    t, x, h = ctx.data.time, ctx.data.x_eq, ctx.data.dt
+
+    def shape(a: int, t0: float) -> np.ndarray:
+        return x[a] * _step_shape(t, h, t0)
+
     return _onset_candidates(
-        ctx, "stiffness step", lambda a, t0: x[a] * (t >= t0),
+        ctx, "stiffness step", shape,
         "unexplained: the stiffness of {ch} ({where}) changes abruptly at t = {t0:.1f} s "
-        "(the catalogue's stiffness drift is linear)")  # fmt: skip
+        "(the catalogue's stiffness drift is linear)",
+        _onset_search(ctx, shape, lambda a: x[a]))  # fmt: skip
 
 
 def _curvatures(ctx: Context) -> list[Candidate]:
@@ -238,11 +332,11 @@ def _nonlinear(ctx: Context) -> list[Candidate]:
     for a in range(4):
         x, f = d.x_eq[a], d.force[a]
         out += [
-            _series_candidate(ctx, a, "x|x| force", x * np.abs(x), "m^-1 s^-2",
+            _series_candidate(ctx, a, X_ABS, x * np.abs(x), "m^-1 s^-2",
                               "a nonlinear force kappa x|x| (not the catalogue's cubic)"),
-            _series_candidate(ctx, a, "x^2 force", x**2, "m^-1 s^-2",
+            _series_candidate(ctx, a, X_SQUARED, x**2, "m^-1 s^-2",
                               "a quadratic (even) stiffness term x^2"),
-            _series_candidate(ctx, a, "f|f| actuation", f * np.abs(f), "s^2 m^-1",
+            _series_candidate(ctx, a, F_ABS, f * np.abs(f), "s^2 m^-1",
                               "a nonlinear actuation term f|f|"),
         ]  # fmt: skip
     return out
@@ -255,7 +349,7 @@ def _products(ctx: Context) -> list[Candidate]:
     for a, b in ((0, 2), (1, 3)):  # (x1, y1), (x2, y2)
         xy = d.x_eq[a] * d.x_eq[b]
         for on in (a, b):
-            out.append(_series_candidate(ctx, on, "x*y product", xy, "m^-1 s^-2",
+            out.append(_series_candidate(ctx, on, XY_PRODUCT, xy, "m^-1 s^-2",
                                          f"a bilinear coupling {AXES[a]}*{AXES[b]} (lines at "
                                          "f_x +- f_y)"))  # fmt: skip
     return out

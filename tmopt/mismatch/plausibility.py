@@ -49,7 +49,17 @@ import numpy as np
 from tmopt.mismatch.fit import AXES, Data, null_basis, tone_instrument
 
 __all__ = ["MIN_SAMPLES", "Check", "Verdict", "precheck", "implausible_effects",
-           "loop_attribution"]
+           "loop_attribution", "saturations"]
+
+#: A measured channel (accelerometer or readout) is saturated -- an ADC at its rail -- when
+#: at least RAIL_MIN of its samples hold exactly its largest (or smallest) value and that
+#: value holds at least RAIL_RATIO times as many samples as any value away from the
+#: extremes.  Physics, not a fit: a continuous reading repeats a value with probability 0,
+#: a uniformly quantised one holds fewest samples in its outermost codes (the tails of its
+#: distribution), while a clip piles every sample beyond the level onto one value.  Null
+#: on development recordings: docs/mismatch.md 9.10.
+RAIL_MIN = 10
+RAIL_RATIO = 10
 
 #: Fewest samples (in gap-free segments) a diagnosis accepts.
 MIN_SAMPLES = 256
@@ -111,6 +121,55 @@ def _slope(y: np.ndarray, x: np.ndarray, z: np.ndarray | None = None) -> tuple[f
 
 def _demean(v: np.ndarray) -> np.ndarray:
     return v - v.mean(axis=-1, keepdims=True)
+
+
+def rail_mask(v: np.ndarray) -> tuple[np.ndarray, list[float]]:
+    """Samples of ``v`` at a saturated rail (:data:`RAIL_MIN`, :data:`RAIL_RATIO`) and the
+    rail levels; an empty list when ``v`` has none."""
+    mask = np.zeros(v.size, bool)
+    if v.size == 0 or not np.all(np.isfinite(v)) or float(np.ptp(v)) == 0.0:
+        return mask, []
+    ends = {float(np.max(v)), float(np.min(v))}
+    at = {e: v == e for e in ends}
+    inner = ~np.logical_or.reduce(list(at.values()))
+    _, counts = np.unique(v[inner], return_counts=True)
+    other = max(int(counts.max()) if counts.size else 0, 1)
+    levels = []
+    for e, m in at.items():
+        k = int(m.sum())
+        if k >= RAIL_MIN and k >= RAIL_RATIO * other:
+            mask |= m
+            levels.append(e)
+    return mask, sorted(levels)
+
+
+def saturations(data: Data) -> list[dict]:
+    """Measured channels pinned at a rail (an ADC saturating: the recorded value is the
+    rail, not the measurement): ``{"channel", "axis", "levels", "samples", "fraction"}``.
+    The commanded forces are not judged (a command limited at its range is what was
+    applied, and the model reads it as recorded)."""
+    out = []
+    for kind, arr in (("acc_", data.acc), ("", data.x)):
+        for a, name in enumerate(AXES):
+            if not arr.shape[1]:
+                continue
+            mask, levels = rail_mask(arr[a])
+            if levels:
+                out.append({"channel": f"{kind}{name}", "axis": name, "levels": levels,
+                            "samples": int(mask.sum()), "fraction": float(mask.mean())})
+    return out
+
+
+def check_saturation(data: Data) -> Check:
+    """Saturated measured channels (:func:`saturations`) are reported, never refused: the
+    samples at a rail are left out of the force-vs-acceleration check, and the diagnosis
+    reports the channel unexplained (no name is more than part of the story there)."""
+    sat = saturations(data)
+    if not sat:
+        return Check("saturation", "ok", "no measured channel sits at a rail")
+    return Check("saturation", "unknown", "; ".join(
+        f"{s['channel']} saturates: {s['samples']} samples ({s['fraction']:.1%}) exactly at "
+        + " / ".join(f"{v:.4g}" for v in s["levels"]) for s in sat), {"saturated": sat})
 
 
 def check_length(data: Data) -> Check:
@@ -218,10 +277,17 @@ def _force_acc_pieces(data: Data, lag: int) -> dict | None:
     if d.n < 16:
         return None
     diff = lambda v: _diff_in_segments(d, v, skip=1)  # noqa: E731
-    return {"acc": np.array([diff(d.acc[a]) for a in range(4)]),
-            "x": np.array([diff(d.x[a]) for a in range(4)]),
-            "force": [np.array([diff(d.force[a]) for a in range(4)]),
-                      np.array([diff(d.lagged(d.force[a], 1)) for a in range(4)])]}  # fmt: skip
+    # a difference touching a sample at an accelerometer's rail is no measurement of
+    # the force (:func:`saturations`): left out
+    rail = np.logical_or.reduce([rail_mask(d.acc[a])[0] for a in range(4)]).astype(float)
+    keep = diff(rail) == 0
+    keep &= np.concatenate([rail[a + 2 : b] == 0 for a, b in d.segments]) \
+        if d.segments else keep  # fmt: skip
+    kept = lambda v: diff(v)[keep]  # noqa: E731
+    return {"acc": np.array([kept(d.acc[a]) for a in range(4)]),
+            "x": np.array([kept(d.x[a]) for a in range(4)]),
+            "force": [np.array([kept(d.force[a]) for a in range(4)]),
+                      np.array([kept(d.lagged(d.force[a], 1)) for a in range(4)])]}  # fmt: skip
 
 
 def _force_acc_slopes(pieces: dict, basis: np.ndarray, extra: tuple[int, ...]) -> dict:
@@ -438,8 +504,8 @@ def check_axis_loops(data: Data) -> Check:
 def precheck(data: Data) -> Verdict:
     """The checks of the module docstring, cheapest first; stops at the first refusal."""
     checks: list[Check] = []
-    for fn in (check_length, check_live, check_excitation, check_force_acc, check_kinematics,
-               check_controller, check_axis_loops):
+    for fn in (check_length, check_live, check_saturation, check_excitation, check_force_acc,
+               check_kinematics, check_controller, check_axis_loops):
         c = fn(data)
         checks.append(c)
         if c.status == "fail":

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from tmopt.mismatch import calibration as cal
+from tmopt.mismatch import generic
 from tmopt.mismatch.diagnose import (
     Diagnosis,
     State,
@@ -63,6 +64,11 @@ def _axes(channel: str) -> set[str]:
     return set(re.findall(r"[xy][12]", channel))
 
 
+#: A two-axis coupling is ambiguous beside a nonlinear or product feature on one of its
+#: axes (docs/mismatch.md 9.10).
+COUPLING_RIVALS = True
+
+
 def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
     """Why a selected effect's name is not a confident one (empty: it is):
 
@@ -87,6 +93,17 @@ def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
     out += [{"name": f.candidate.effect, "channel": f.candidate.channel, "delta_bic": f.dbic,
              **_feature_of(f.candidate)}
             for f, _ in dg.features if f.candidate.channel == ev.candidate.channel]  # fmt: skip
+    # a nonlinear or product force selected on an axis of a two-axis coupling (a
+    # cross-talk, a cross-coupling): its lines are partly a linear coupling's, so the
+    # coupling may be its remainder (u|u| on x2 beside a cross-talk y2<-x2, k40125; x2*y2
+    # beside a cross-talk x2<-y2, k50114)
+    mine = _axes(ev.candidate.channel)
+    if COUPLING_RIVALS and len(mine) == 2:
+        out += [{"name": f.candidate.effect, "channel": f.candidate.channel,
+                 "delta_bic": f.dbic, **_feature_of(f.candidate)}
+                for f, _ in dg.features
+                if f.candidate.fixed.get("feature") in generic.NONLINEAR_KINDS
+                and _axes(f.candidate.channel) & mine]  # fmt: skip
     out += [{"name": "shape misfit (its residual needs a curvature: "
                      "not the effect's shape)", "channel": m["channel"], "delta_bic": None,
              "glr": m["glr"], "p_value": m["p_value"]}
@@ -109,6 +126,11 @@ def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
     # once its stiffness drift of 10 s^-2 was out, as a cross-coupling y1<-x1)
     out += [{"name": f"explanation beyond physics taken out ({b['key']})",
              "channel": b["channel"], "delta_bic": None} for b in dg.beyond]  # fmt: skip
+    # a measured channel at a rail (an ADC saturating): the fit read clipped samples as
+    # measurements, and through the loop on every axis (a clipped accelerometer was named
+    # a DAC quantisation of all axes: k40137, k50136), so no name is more than part of it
+    out += [{"name": f"saturated {s['channel']} ({s['samples']} samples at its rail)",
+             "channel": s["axis"], "delta_bic": None} for s in dg.saturated]  # fmt: skip
     mine = _axes(ev.candidate.channel)
     kin = ev.candidate.group == "kinematic"  # its structure is in the readout residual
     left = [c for c in dg.locations_after.channels
@@ -139,6 +161,9 @@ def _unexplained_at(dg: Diagnosis, rep: dict) -> dict:
             loc["channels"].append(a["channel"])
     # an explanation beyond physics, taken out: its residual channel (the axis's force
     # equation, or the axis's readout for a kinematic one) is unexplained
+    for s in dg.saturated:  # a measured channel at a rail: its axis
+        if s["axis"] not in loc["channels"]:
+            loc["channels"].append(s["axis"])
     for b in dg.beyond:
         suffix = " readout" if b["group"] == "kinematic" else ""
         for a in sorted(_axes(b["channel"])) or [b["channel"]]:
@@ -238,6 +263,9 @@ def _refused_report(dg: Diagnosis) -> dict:
         "notes": list(dg.data.notes),
         "settings": _settings(dg),
     }  # fmt: skip
+    if dg.saturated:  # a measured channel at its rail: what is known to be wrong, and where
+        rep["mismatch_detected"] = rep["unexplained"] = True
+        rep["unexplained_at"]["channels"] = sorted({s["axis"] for s in dg.saturated})
     rep["conclusion"] = conclusion(rep)
     return rep
 
