@@ -114,7 +114,8 @@ def fit_null(values: np.ndarray, dof: int) -> tuple[float, float]:
     best = (-np.inf, 1.0, 1e4)
     for nu in np.geomspace(1.0, 1e4, 81):
         res = optimize.minimize_scalar(
-            lambda ls: -float(np.sum(stats.f.logpdf(v / math.exp(ls), dof, nu)) - v.size * ls),
+            lambda ls, nu=nu: -float(np.sum(stats.f.logpdf(v / math.exp(ls), dof, nu))
+                                     - v.size * ls),
             bounds=(-3.0, 3.0), method="bounded")  # fmt: skip
         if -res.fun > best[0]:
             best = (-res.fun, math.exp(res.x), float(nu))

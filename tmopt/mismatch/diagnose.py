@@ -798,8 +798,9 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
     final model, are significant at ``alpha`` (GLR ~ chi^2, one test per effect; ``alpha``
     = 1 lists every check, for calibration; ``lowfreq``: the GLR referred to the check's
     null calibrated under the 1/f^2 background, :func:`lowfreq_glr` -- measured, not used
-    by :func:`diagnose`: it names a slow modulation a drift, docs/mismatch.md 9.10).  Each: ``{"key",
-    "channel", "glr", "dof", "p_value"}`` (``glr``: the chi^2-equivalent statistic)."""
+    by :func:`diagnose`: it names a slow modulation a drift, docs/mismatch.md 9.10).
+    Each: ``{"key", "channel", "glr", "dof", "p_value"}`` (``glr``: the chi^2-equivalent
+    statistic)."""
     ctx = Context(data, basis, state.eq_fit.residual, state.eq_noise)
     group = _Group(None, state.eq_cols, state.eq_fit, state.eq_noise.whiten)
     out = []
