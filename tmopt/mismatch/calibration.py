@@ -67,8 +67,10 @@ JOINT_INFLATION: dict[str, float] = {"drift": 3.25, "other": 1.05}
 #: statistic; ``nu`` came out at its grid's end, 1e4: the values ask for a scale, not a
 #: heavier tail), checked on 21030-21059:
 #: ``experiments/mismatch_lowfreq_probe.py --clean 21000:21030 --summarise`` (docs/mismatch.md
-#: 9.10).  Used when ``Settings.lowfreq`` (``diagnose.lowfreq_glr``) for the ramp's and the
-#: curvature's significance; the shape check's null is measured but not applied (referred
-#: to it, the check let a 1e-4 Hz modulation on development seed 512 be named a drift).
+#: 9.10).  Used for the nulls named in ``Settings.lowfreq`` (``diagnose.lowfreq_glr``):
+#: the curvature's by default, the ramp's as an option (on never-seen recordings it took
+#: two wrong drift names off two modulations and two true drifts with them); the shape
+#: check's is measured, not applied (referred to it, the check let a 1e-4 Hz modulation on
+#: development seed 512 be named a drift).
 LOWFREQ_NULL: dict[str, tuple[float, float]] = {
     "ramp": (1.581, 1e4), "curvature": (1.679, 1e4), "shape": (1.586, 1e4)}

@@ -76,10 +76,11 @@ class Settings:
     # re-test left-out candidates under the alternative (tmopt.mismatch.joint). Off by
     # default: on never-seen recordings its additions were wrong 5 times in 6 (docs 9.9)
     joint: bool = False
-    # the significance of shapes that live in the lowest bins (a bias ramp, the curvature
-    # feature) from their null calibrated on clean flight-like recordings, whose 1/f^2
-    # acceleration noise inflates them (calibration.LOWFREQ_NULL; docs 9.10)
-    lowfreq: bool = True
+    # the low-frequency shapes (keys of calibration.LOWFREQ_NULL: "ramp", "curvature")
+    # whose significance comes from their null calibrated on clean flight-like recordings,
+    # whose 1/f^2 acceleration noise inflates them (docs 9.10).  The ramp's is off by
+    # default: on never-seen recordings it cost two true drifts for two wrong names
+    lowfreq: tuple[str, ...] = ("curvature",)
 
     def __post_init__(self) -> None:
         if not (0 < self.alpha < 1 and 0 < self.locate_alpha < 1):
@@ -91,6 +92,9 @@ class Settings:
                              f"{self.max_effects!r}")  # fmt: skip
         if self.noise not in ("coloured", "white"):
             raise ValueError(f"noise must be 'coloured' or 'white'; got {self.noise!r}")
+        if not set(self.lowfreq) <= set(cal.LOWFREQ_NULL) - {"shape"}:
+            raise ValueError(f"lowfreq must name nulls among 'ramp', 'curvature'; got "
+                             f"{self.lowfreq!r}")  # fmt: skip
 
 
 @dataclass
@@ -490,10 +494,10 @@ def _tests(data: Data, basis: np.ndarray, state: State, settings: Settings,
 
 def _null_glr(cand: Candidate, lam: float, settings: Settings) -> float:
     """The GLR that a candidate's p-value is computed from: referred to its calibrated
-    null (:func:`lowfreq_glr`) for a low-frequency shape with ``Settings.lowfreq``, else
+    null (:func:`lowfreq_glr`) for a low-frequency shape named in ``Settings.lowfreq``, else
     the GLR itself.  Only significance uses it; BIC gains and the ambiguity band compare
     raw GLRs (two slow shapes on one background share its inflation)."""
-    if cand.null and settings.lowfreq:
+    if cand.null and cand.null in settings.lowfreq:
         return lowfreq_glr(lam, len(cand.columns), cand.null)
     return lam
 

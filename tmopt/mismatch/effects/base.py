@@ -191,7 +191,7 @@ class Candidate:
     #: Its GLR's own calibrated null (a key of ``calibration.LOWFREQ_NULL``; "": chi^2):
     #: a shape living in the record's lowest bins, where the coloured noise model rests on
     #: a handful of periodogram bins and the 1/f^2 background inflates the statistic;
-    #: used when ``Settings.lowfreq`` is on (``diagnose.lowfreq_glr``).
+    #: used when ``Settings.lowfreq`` names it (``diagnose.lowfreq_glr``).
     null: str = ""
     #: Axis whose motion drives the effect (a coupling's source): identifiability calls
     #: it "not excited" when that axis has no excitation tones -- its readout is then
