@@ -40,7 +40,8 @@ see docs/mismatch.md, "Calibration").  They are constants here, not tuned per re
 from __future__ import annotations
 
 __all__ = ["FAMILY_ALPHA", "LOCATE_ALPHA", "AMBIGUOUS_DBIC", "ALIASED_R2", "LJUNG_BOX_LAGS",
-           "SHAPE_ALPHA", "MODEL_PRECISION", "JOINT_INFLATION", "KIN_STIFFNESS_VISIBLE"]
+           "SHAPE_ALPHA", "MODEL_PRECISION", "JOINT_INFLATION", "KIN_STIFFNESS_VISIBLE",
+           "LOWFREQ_NULL"]
 
 FAMILY_ALPHA: float = 0.01
 LOCATE_ALPHA: float = 0.01
@@ -62,3 +63,22 @@ JOINT_INFLATION: dict[str, float] = {"drift": 3.25, "other": 1.05}
 #: with it (:func:`tmopt.mismatch.diagnose._final_model_kinematics`; docs/mismatch.md 9.4).  Not
 #: tuned: below one sigma the change cannot move a test; above it, redoing costs only time.
 KIN_STIFFNESS_VISIBLE: float = 1.0
+
+#: Null distributions of the statistics of shapes living in the record's lowest bins, on
+#: clean flight-like recordings of both simulators (the 1/f^2 acceleration noise; the
+#: coloured model's level there rests on a handful of periodogram bins): a bias ramp
+#: (``bias_drift``'s column, 1 dof), the curvature feature (1 dof) and the drift's shape
+#: check (Legendre P2 + P3 beside a fitted linear drift, 2 dof).  ``(scale, nu)``: under
+#: "no effect" the GLR is ``dof * scale * F(dof, nu)`` (Student's ratio for a noise level
+#: estimated from few bins; ``nu`` -> inf is ``scale * chi^2``), maximum likelihood on the
+#: pooled per-axis values of calibration seeds 21000-21029 (60 recordings, 240 values per
+#: statistic; ``nu`` came out at its grid's end, 1e4: the values ask for a scale, not a
+#: heavier tail), checked on 21030-21059:
+#: ``experiments/mismatch_lowfreq_probe.py --clean 21000:21030 --summarise`` (docs/mismatch.md
+#: 9.11).  Used for the nulls named in ``Settings.lowfreq`` (``diagnose.lowfreq_glr``):
+#: the curvature's by default, the ramp's as an option (on never-seen recordings it took
+#: two wrong drift names off two modulations and two true drifts with them); the shape
+#: check's is measured, not applied (referred to it, the check let a 1e-4 Hz modulation on
+#: development seed 512 be named a drift).
+LOWFREQ_NULL: dict[str, tuple[float, float]] = {
+    "ramp": (1.581, 1e4), "curvature": (1.679, 1e4), "shape": (1.586, 1e4)}

@@ -77,6 +77,11 @@ class Settings:
     # re-test left-out candidates under the alternative (tmopt.mismatch.joint). Off by
     # default: on never-seen recordings its additions were wrong 5 times in 6 (docs 9.9)
     joint: bool = False
+    # the low-frequency shapes (keys of calibration.LOWFREQ_NULL: "ramp", "curvature")
+    # whose significance comes from their null calibrated on clean flight-like recordings,
+    # whose 1/f^2 acceleration noise inflates them (docs 9.11).  The ramp's is off by
+    # default: on never-seen recordings it cost two true drifts for two wrong names
+    lowfreq: tuple[str, ...] = ("curvature",)
 
     def __post_init__(self) -> None:
         if not (0 < self.alpha < 1 and 0 < self.locate_alpha < 1):
@@ -88,6 +93,9 @@ class Settings:
                              f"{self.max_effects!r}")  # fmt: skip
         if self.noise not in ("coloured", "white"):
             raise ValueError(f"noise must be 'coloured' or 'white'; got {self.noise!r}")
+        if not set(self.lowfreq) <= set(cal.LOWFREQ_NULL) - {"shape"}:
+            raise ValueError(f"lowfreq must name nulls among 'ramp', 'curvature'; got "
+                             f"{self.lowfreq!r}")  # fmt: skip
 
 
 @dataclass
@@ -474,7 +482,7 @@ def _tests(data: Data, basis: np.ndarray, state: State, settings: Settings,
             g = groups[cand.group]
             lam = _statistic(cand, groups)
             dof = len(cand.columns)
-            p = min(1.0, cand.trials * float(stats.chi2.sf(lam, dof)))
+            p = min(1.0, cand.trials * float(stats.chi2.sf(_null_glr(cand, lam, settings), dof)))
             out.append(Evaluation(cand, lam, dof, g.n, p))
     excludable = [True] * len(out)
     if settings.generic:
@@ -482,10 +490,20 @@ def _tests(data: Data, basis: np.ndarray, state: State, settings: Settings,
         for cand in generic.candidates(ctx):
             lam = g.glr(cand.columns)
             dof = len(cand.columns)
-            p = min(1.0, cand.trials * float(stats.chi2.sf(lam, dof)))
+            p = min(1.0, cand.trials * float(stats.chi2.sf(_null_glr(cand, lam, settings), dof)))
             out.append(Evaluation(cand, lam, dof, g.n, p))
             excludable.append(False)
     return out, excludable
+
+
+def _null_glr(cand: Candidate, lam: float, settings: Settings) -> float:
+    """The GLR that a candidate's p-value is computed from: referred to its calibrated
+    null (:func:`lowfreq_glr`) for a low-frequency shape named in ``Settings.lowfreq``, else
+    the GLR itself.  Only significance uses it; BIC gains and the ambiguity band compare
+    raw GLRs (two slow shapes on one background share its inflation)."""
+    if cand.null and cand.null in settings.lowfreq:
+        return lowfreq_glr(lam, len(cand.columns), cand.null)
+    return lam
 
 
 def _holm_adjusted(evals: list[Evaluation]) -> list[Evaluation]:
@@ -722,7 +740,7 @@ def _still_needed(data, basis, chosen: list[Evaluation], i: int, settings: Setti
         g = groups[cand.group]
         lam = _statistic(cand, groups)
         dof, n, trials = len(cand.columns), g.n, cand.trials
-    p = min(1.0, n_tests * trials * float(stats.chi2.sf(lam, dof)))
+    p = min(1.0, n_tests * trials * float(stats.chi2.sf(_null_glr(cand, lam, settings), dof)))
     return p < settings.alpha and lam - (dof + cand.n_searched) * math.log(n) > 0
 
 
@@ -782,12 +800,15 @@ def _deterministic_instead(data, basis, state: State, evals: list[Evaluation],
 
 
 def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
-                  alpha: float = cal.SHAPE_ALPHA) -> list[dict]:  # fmt: skip
+                  alpha: float = cal.SHAPE_ALPHA, lowfreq: bool = False) -> list[dict]:  # fmt: skip
     """Selected catalogue effects whose shape the final residual contradicts: the
     effect's :meth:`~tmopt.mismatch.effects.base.Effect.shape_check` columns, added to the
     final model, are significant at ``alpha`` (GLR ~ chi^2, one test per effect; ``alpha``
-    = 1 lists every check, for calibration).  Each: ``{"key", "channel", "glr", "dof",
-    "p_value"}``."""
+    = 1 lists every check, for calibration; ``lowfreq``: the GLR referred to the check's
+    null calibrated under the 1/f^2 background, :func:`lowfreq_glr` -- measured, not used
+    by :func:`diagnose`: it names a slow modulation a drift, docs/mismatch.md 9.11).
+    Each: ``{"key", "channel", "glr", "dof", "p_value"}`` (``glr``: the chi^2-equivalent
+    statistic)."""
     ctx = Context(data, basis, state.eq_fit.residual, state.eq_noise)
     group = _Group(None, state.eq_cols, state.eq_fit, state.eq_noise.whiten)
     out = []
@@ -798,11 +819,28 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
         if not cols or cand.group != "equation":
             continue
         lam = group.glr(cols)
+        if lowfreq:
+            lam = lowfreq_glr(lam, len(cols), "shape")
         p = float(stats.chi2.sf(lam, len(cols)))
         if p < alpha:
             out.append({"key": cand.key, "channel": cand.channel, "glr": lam,
                         "dof": len(cols), "p_value": p})  # fmt: skip
     return out
+
+
+def lowfreq_glr(lam: float, dof: int, which: str) -> float:
+    """A low-frequency shape's GLR referred to its calibrated null and returned as the
+    chi^2_dof statistic of the same p-value (so p-values, trials and BIC gains use it as
+    any GLR).  Under "no effect" such a GLR is ``dof * scale * F(dof, nu)``
+    (``cal.LOWFREQ_NULL[which] = (scale, nu)``): the noise level it is measured against
+    is, at the record's lowest bins, an estimate from a few periodogram bins (Student's
+    ratio: a chi^2 over an independent chi^2_nu / nu), and the 1/f^2 background's
+    realised record scales it (``scale``)."""
+    scale, nu = cal.LOWFREQ_NULL[which]
+    p = float(stats.f.sf(lam / (scale * dof), dof, nu))
+    if p <= 1e-300:
+        return lam / scale
+    return float(stats.chi2.isf(p, dof))
 
 
 def shares_axis(a: str, b: str) -> bool:

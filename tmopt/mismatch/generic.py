@@ -270,6 +270,7 @@ def _curvatures(ctx: Context) -> list[Candidate]:
         col = Column(f"{GENERIC}:curvature[{AXES[a]}]", axis_column(ctx.basis, a, series))
         out.append(Candidate(GENERIC, AXES[a], "equation", ["curvature"], ["m s^-2"], [col],
                              None, fixed={"feature": "curvature"},
+                             null="curvature",
                              text=f"unexplained: the force on {AXES[a]} ({TMS[AXES[a]]}) "
                                   "changes non-linearly in time (a curved bias; the "
                                   "catalogue's drift is linear)"))  # fmt: skip

@@ -188,6 +188,11 @@ class Candidate:
     #: is an offset of the kinematic target (``diagnose._tied_offset``), not a column.
     twin_tie: Callable[[float], np.ndarray] | None = None
     n_searched: int = 0  # parameters found by search (counted in the BIC penalty)
+    #: Its GLR's own calibrated null (a key of ``calibration.LOWFREQ_NULL``; "": chi^2):
+    #: a shape living in the record's lowest bins, where the coloured noise model rests on
+    #: a handful of periodogram bins and the 1/f^2 background inflates the statistic;
+    #: used when ``Settings.lowfreq`` names it (``diagnose.lowfreq_glr``).
+    null: str = ""
     #: Axis whose motion drives the effect (a coupling's source): identifiability calls
     #: it "not excited" when that axis has no excitation tones -- its readout is then
     #: mostly readout noise, which is not motion.
