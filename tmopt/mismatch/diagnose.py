@@ -830,8 +830,9 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
 
 def lowfreq_glr(lam: float, dof: int, which: str) -> float:
     """A low-frequency shape's GLR referred to its calibrated null and returned as the
-    chi^2_dof statistic of the same p-value (so p-values, trials and BIC gains use it as
-    any GLR).  Under "no effect" such a GLR is ``dof * scale * F(dof, nu)``
+    chi^2_dof statistic of the same p-value (so p-values and trials factors use it as any
+    GLR; BIC gains keep the raw GLR, :func:`_null_glr`).  Under "no effect" such a GLR is
+    ``dof * scale * F(dof, nu)``
     (``cal.LOWFREQ_NULL[which] = (scale, nu)``): the noise level it is measured against
     is, at the record's lowest bins, an estimate from a few periodogram bins (Student's
     ratio: a chi^2 over an independent chi^2_nu / nu), and the 1/f^2 background's
@@ -984,8 +985,9 @@ def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
     """Check, fit, locate, explain (stepwise, calibrated), re-identify; see the module
     docstring.  A recording that fails the plausibility checks is refused ("cannot
     diagnose: <why>", :mod:`tmopt.mismatch.plausibility`).  When the final model's
-    model would change the exact kinematics (:func:`_final_model_kinematics`)
-    the diagnosis is redone with it (at most :data:`MAX_STIFFNESS_REDOS` times)."""
+    stiffness or accelerometer convention would change the exact kinematics
+    (:func:`_final_model_kinematics`), the diagnosis is redone with them (at most
+    :data:`MAX_STIFFNESS_REDOS` times)."""
     settings = Settings() if settings is None else settings
     verdict = precheck(data)
     if verdict.refused:

@@ -3,6 +3,7 @@ changing", Eq. 2; thermal gradients, charging, outgassing)."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -50,11 +51,10 @@ class BiasDrift(Effect):
     def candidates(self, ctx: Context) -> list[Candidate]:
         t = ctx.data.time - ctx.data.time[0]
         span = max(float(t[-1]), ctx.data.dt)
-        out = [self.equation_candidate(a, "fdot", "m s^-3", t, ctx, i, self.plausible / span)
-               for i, a in enumerate(AXES)]  # fmt: skip
-        for c in out:  # a ramp lives in the record's lowest bins: its own null (docs 9.11)
-            c.null = "ramp"
-        return out
+        # a ramp lives in the record's lowest bins: its own calibrated null (docs 9.11)
+        return [replace(self.equation_candidate(a, "fdot", "m s^-3", t, ctx, i,
+                                                self.plausible / span), null="ramp")
+                for i, a in enumerate(AXES)]  # fmt: skip
 
     def shape_check(self, ctx: Context, cand: Candidate) -> list[Column]:
         """Legendre P2 and P3 of the record's time on the drift's axis: a linear drift
