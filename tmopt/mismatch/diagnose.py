@@ -44,6 +44,7 @@ from tmopt.mismatch.fit import (
     FitResult,
     align_force_timing,
     align_kinematics,
+    axis_column,
     choose_acc_convention,
     equation_target,
     kinematic_target,
@@ -116,6 +117,9 @@ class State:
     kin_target: np.ndarray | None = None
     #: Tied twins of the selected effects: ``(equation column names, twin, term)``.
     ties: tuple = ()
+    #: Stiffness positions tied to selected kinematic columns: ``(column name, shift)``
+    #: (:func:`_true_position_columns`).
+    eq_ties: tuple = ()
 
     def kinematic_target(self, data: Data) -> np.ndarray:
         return kinematic_target(data) if self.kin_target is None else self.kin_target
@@ -252,21 +256,55 @@ def _fit_kin(target, cols, layout, fs: float, rounds: int | None = None):
 
 
 def fit_state(data: Data, basis: np.ndarray, eq_extra: list[Column], kin_extra: list[Column],
-              red: bool, settings: Settings, ties: tuple = ()) -> State:  # fmt: skip
+              red: bool, settings: Settings, ties: tuple = (),
+              eq_ties: tuple = ()) -> State:  # fmt: skip
     """Fit the nominal model plus the given extra columns, noise models re-estimated;
     ``ties``: twins whose kinematic coefficient is tied to equation coefficients
-    (:func:`_tied_offset`)."""
+    (:func:`_tied_offset`); ``eq_ties``: stiffness positions shifted by kinematic
+    coefficients (:func:`_true_position_columns`: the equation group is fitted again once
+    they are known)."""
     eq_nom = nominal_equation_columns(data, basis)
     kin_nom = nominal_kinematic_columns(data)
     kind = "smoothed" if settings.noise == "coloured" else "white"
-    eq_fit, eq_noise = _fit_eq(equation_target(data, basis), eq_nom + eq_extra, red,
-                               data.layout, data.fs, kind)  # fmt: skip
+    eq_target = equation_target(data, basis)
+    eq_fit, eq_noise = _fit_eq(eq_target, eq_nom + eq_extra, red, data.layout, data.fs, kind)
     target = kinematic_target(data)
     if ties:
         target = target - _tied_offset(data, eq_fit, kin_nom + kin_extra, ties)
     kin_fit, kin_noise = _fit_kin(target, kin_nom + kin_extra, data.kin_layout, data.fs)
+    if eq_ties:
+        eq_nom = _true_position_columns(data, basis, eq_nom, kin_fit, eq_ties)
+        eq_fit, eq_noise = _fit_eq(eq_target, eq_nom + eq_extra, red, data.layout, data.fs,
+                                   kind)  # fmt: skip
     return State(eq_nom + eq_extra, kin_nom + kin_extra, red, eq_fit, eq_noise, kin_fit,
-                 kin_noise, len(eq_nom), len(kin_nom), target, tuple(ties))  # fmt: skip
+                 kin_noise, len(eq_nom), len(kin_nom), target, tuple(ties),
+                 tuple(eq_ties))  # fmt: skip
+
+
+def _true_position_columns(data: Data, basis: np.ndarray, eq_nom: list[Column],
+                           kin_fit: FitResult, eq_ties: tuple) -> list[Column]:  # fmt: skip
+    """The nominal equation columns with each stiffness acting on the *true* position.
+
+    A displacement cross-talk ``c`` from axis b into readout a (kinematic group) puts
+    ``c x_b`` in the measured ``x_a``; the accelerometer feels ``k_a`` times the true
+    position, so Eq. 10's column ``k_a x_a`` (Eq. 12) fitted on the measured one leaves
+    ``-k_a c x_b`` in axis a's equation -- a stiffness coupling a<-b of ``-k_a c``
+    (foreign 80063: c = -0.0119, k1yy = -3.3e-7, a coupling of -3.97e-9 s^-2 expected,
+    -3.57e-9 +- 0.29e-9 named beside the cross-talk).  ``c`` is known to ~1e-3 of its
+    value; ``k_a`` of an unexcited axis is not (+-4.6e-7 there), so the position is
+    corrected inside k_a's column (``x_a - c x_b``) and k_a fitted with it, rather than
+    a term ``-k_a c x_b`` computed from a poor k_a or a free coupling column (which would
+    hide a real coupling of the same pair)."""
+    shift = np.zeros_like(data.x_eq)
+    for name, tie in eq_ties:
+        a, series = tie(kin_fit.value(name))
+        shift[a] += series
+    out = list(eq_nom)
+    for a, nm in enumerate(STIFFNESS_NAMES):
+        if np.any(shift[a]):
+            i = next(j for j, c in enumerate(out) if c.name == nm)
+            out[i] = Column(nm, axis_column(basis, a, data.x_eq[a] + shift[a]))
+    return out
 
 
 # --------------------------------------------------------------------------- evidence
@@ -619,7 +657,7 @@ def identifiability(data: Data, basis: np.ndarray, state: State, settings: Setti
 def _identifiable_iv(cand: Candidate, group: _IVGroup, z2: float) -> dict | None:
     """Kinematic candidates: minimum detectable value from the IV covariance."""
     col = cand.columns[0]
-    if not np.any(col.instrument):
+    if col.instrument is not None and not np.any(col.instrument):
         return {"name": cand.effect, "channel": cand.channel, "reason": "not excited",
                 "aliased_with": None, "min_detectable": None,
                 "plausible": cand.plausible}  # fmt: skip
@@ -688,7 +726,7 @@ def _add(data, basis, state: State, ev: Evaluation, settings: Settings) -> State
     if cand.group == "noise":
         return fit_state(data, basis, state.eq_cols[state.n_nominal_eq :],
                          state.kin_cols[state.n_nominal_kin :], True, settings,
-                         state.ties)  # fmt: skip
+                         state.ties, state.eq_ties)  # fmt: skip
     eq_x = state.eq_cols[state.n_nominal_eq :]
     kin_x = state.kin_cols[state.n_nominal_kin :]
     tag = f"#{len(eq_x) + len(kin_x)}"  # unique names if an effect is selected twice
@@ -698,7 +736,7 @@ def _add(data, basis, state: State, ev: Evaluation, settings: Settings) -> State
         cand.twin = Column(f"{cand.twin.name}{tag}", cand.twin.values, cand.twin.instrument)
     eq_c, kin_c, _ = _columns([ev])
     return fit_state(data, basis, eq_x + eq_c, kin_x + kin_c, state.red, settings,
-                     state.ties + _ties([ev]))  # fmt: skip
+                     state.ties + _ties([ev]), state.eq_ties + _eq_ties([ev]))  # fmt: skip
 
 
 def _columns(chosen: list[Evaluation]) -> tuple[list[Column], list[Column], bool]:
@@ -710,16 +748,24 @@ def _columns(chosen: list[Evaluation]) -> tuple[list[Column], list[Column], bool
             red = True
         elif c.group == "equation":
             eq += c.columns
-            if c.twin is not None and not _tied(c) and np.any(c.twin.instrument):
+            if c.twin is not None and not _tied(c) and _testable_twin(c.twin):
                 kin.append(c.twin)
         else:
             kin += c.columns
     return eq, kin, red
 
 
+def _testable_twin(twin: Column) -> bool:
+    """A twin the kinematic fit can estimate: instrumented at excitation tones, or its own
+    instrument (a source axis without excitation,
+    :data:`tmopt.mismatch.effects.base.UNEXCITED_SOURCE_OLS`) --
+    the same twins that :func:`_joint` tests."""
+    return twin.instrument is None or bool(np.any(twin.instrument))
+
+
 def _rebuild(data, basis, chosen: list[Evaluation], settings: Settings) -> State:
     eq, kin, red = _columns(chosen)
-    return fit_state(data, basis, eq, kin, red, settings, _ties(chosen))
+    return fit_state(data, basis, eq, kin, red, settings, _ties(chosen), _eq_ties(chosen))
 
 
 def _still_needed(data, basis, chosen: list[Evaluation], i: int, settings: Settings,
@@ -1202,6 +1248,13 @@ def _ties(chosen: list[Evaluation]) -> tuple:
     """The selected equation candidates' tied twins: ``(column names, twin, term)``."""
     return tuple((tuple(col.name for col in c.columns), c.twin, c.twin_tie)
                  for c in (ev.candidate for ev in chosen) if _tied(c))  # fmt: skip
+
+
+def _eq_ties(chosen: list[Evaluation]) -> tuple:
+    """The selected kinematic candidates' tied stiffness positions: ``(column name,
+    tie)``."""
+    return tuple((c.columns[0].name, c.eq_tie) for c in (ev.candidate for ev in chosen)
+                 if c.group == "kinematic" and c.eq_tie is not None)  # fmt: skip
 
 
 def _tied_offset(data: Data, eq_fit: FitResult, kin_cols: list[Column],

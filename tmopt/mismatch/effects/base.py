@@ -187,6 +187,10 @@ class Candidate:
     #: kinematic term (4, rows); once selected that term at the joint estimate of ``p``
     #: is an offset of the kinematic target (``diagnose._tied_offset``), not a column.
     twin_tie: Callable[[float], np.ndarray] | None = None
+    #: Set (kinematic candidates): how the parameter p moves a stiffness term's position,
+    #: ``eq_tie(p) -> (axis, shift (N,))``; once selected, that axis' stiffness column of
+    #: Eq. 10 acts on ``x_eq + shift`` (``diagnose._true_position_columns``).
+    eq_tie: Callable[[float], tuple[int, np.ndarray]] | None = None
     n_searched: int = 0  # parameters found by search (counted in the BIC penalty)
     #: Its GLR's own calibrated null (a key of ``calibration.LOWFREQ_NULL``; "": chi^2):
     #: a shape living in the record's lowest bins, where the coloured noise model rests on
@@ -385,8 +389,21 @@ def kinematic_column(name: str, ctx: Context, a: int, b: int, sign: float = 1.0)
     arr = np.zeros((4, rows.size))
     inst = np.zeros((4, rows.size))
     arr[a] = sign * kinematic_series(d, b)
+    if UNEXCITED_SOURCE_OLS and a != b and not d.tones(b):
+        return Column(name, arr, None, (), a)  # the regressor is its own instrument
     inst[a] = tone_instrument(arr[a], d.time[rows], d.tones(b))
     return Column(name, arr, inst, tuple(d.tones(b)), a)
+
+
+#: A readout term driven by *another* axis b that carries no excitation is tested with the
+#: plain regressor ``h^2 acc_b`` (least squares, no instrument): b's acceleration then holds
+#: only b's own noise, which the loops do not feed into readout a, so it is exogenous there
+#: (docs/mismatch.md 9.12; the null, on clean recordings of both simulators:
+#: experiments/mismatch_open_source_null.py).  Off, such a term was untestable and a
+#: cross-talk from a y axis moving with its noise alone was never seen (80000 set: 4 of the
+#: 5 cross-talk misses).  The own axis (a readout scale, a == b) keeps its instrument: a's
+#: loop feeds a's readout noise into acc_a.
+UNEXCITED_SOURCE_OLS = True
 
 
 # --------------------------------------------------------------------------- time profiles

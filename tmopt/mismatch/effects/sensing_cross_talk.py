@@ -38,7 +38,10 @@ class SensingCrossTalk(Effect):
     plausible = 1e-2
     explanation = ("the {kind} readout of {a} also sees {b}: cross-talk coefficient c "
                    "(electrode or optical misalignment, electronic pick-up)")  # fmt: skip
-    needs = "motion of the source axis (cross-talk from an unexcited axis is invisible)"
+    # an unexcited source moves with its own noise: seen through least squares (base.
+    # UNEXCITED_SOURCE_OLS), at a strength set by that noise motion, not by a design
+    needs = ("motion of the source axis (excitation; unexcited, only its noise motion "
+             "carries the term)")  # fmt: skip
     calibration = Calibration("y1", {"source": "x1", "sensor": "disp"}, 0.0032, 5.0, 0.034,
                               52.8, "kin_y1")  # fmt: skip
 
@@ -68,10 +71,20 @@ class SensingCrossTalk(Effect):
                 # an accelerometer error also breaks the kinematics: D_a = -c h^2 acc_b
                 c.twin = kinematic_column(f"{c.key}:kin", ctx, a, b, -1.0)
                 out.append(c)
-                out.append(self.kinematic_candidate(
+                disp = self.kinematic_candidate(
                     f"disp:{ch}", "c", ctx, a, b,
-                    self.explanation.format(kind="displacement", a=AXES[a], b=AXES[b])))
+                    self.explanation.format(kind="displacement", a=AXES[a], b=AXES[b]))
+                disp.eq_tie = _stiffness_on_true_position(ctx, a, b)
+                out.append(disp)
         return out
+
+
+def _stiffness_on_true_position(ctx: Context, a: int, b: int):
+    """A displacement cross-talk's place in Eq. 10: the stiffness acts on the true
+    position ``x_a = x_meas,a - c x_b``, not the measured one
+    (:func:`tmopt.mismatch.diagnose._true_position_columns`)."""
+    xb = ctx.data.x_eq[b]
+    return lambda c: (a, -c * xb)
 
 
 def _mix(chans: dict[str, np.ndarray], to: str, frm: str, c: float) -> None:
