@@ -771,14 +771,6 @@ def _rebuild(data, basis, chosen: list[Evaluation], settings: Settings) -> State
 def _still_needed(data, basis, chosen: list[Evaluation], i: int, settings: Settings,
                   n_tests: int) -> bool:  # fmt: skip
     """Is effect i significant given all the others (Bonferroni at the catalogue size)?"""
-    ev = _drop_one(data, basis, chosen, i, settings, n_tests)
-    return ev.p_holm < settings.alpha and ev.dbic > 0
-
-
-def _drop_one(data, basis, chosen: list[Evaluation], i: int, settings: Settings,
-              n_tests: int) -> Evaluation:  # fmt: skip
-    """Effect i's evaluation given all the others: its statistic against the model
-    without it, ``p_holm`` the Bonferroni p-value at the catalogue size."""
     others = chosen[:i] + chosen[i + 1 :]
     st = _rebuild(data, basis, others, settings)
     cand = chosen[i].candidate
@@ -794,16 +786,8 @@ def _drop_one(data, basis, chosen: list[Evaluation], i: int, settings: Settings,
         g = groups[cand.group]
         lam = _statistic(cand, groups)
         dof, n, trials = len(cand.columns), g.n, cand.trials
-    p = min(1.0, trials * float(stats.chi2.sf(_null_glr(cand, lam, settings), dof)))
-    return Evaluation(cand, lam, dof, n, p, min(1.0, n_tests * p))
-
-
-def _clashes(ev: Evaluation, chosen: list[Evaluation]) -> bool:
-    """Can ``ev`` not join a model holding ``chosen`` (:attr:`Candidate.excludes`, either
-    way round)?"""
-    key = ev.candidate.key
-    return any(key in c.candidate.excludes or c.candidate.key in ev.candidate.excludes
-               for c in chosen)  # fmt: skip
+    p = min(1.0, n_tests * trials * float(stats.chi2.sf(_null_glr(cand, lam, settings), dof)))
+    return p < settings.alpha and lam - (dof + cand.n_searched) * math.log(n) > 0
 
 
 def _backward(data, basis, selected: list, settings: Settings, n_tests: int) -> list:
@@ -842,24 +826,22 @@ def _take_best(data, basis, state: State, sig: list[Evaluation], exclude: set[st
 
 def _deterministic_instead(data, basis, state: State, evals: list[Evaluation],
                            settings: Settings, exclude: set[str], n_tests: int,
-                           tests: _Evaluations, chosen: list[Evaluation]):  # fmt: skip
+                           tests: _Evaluations):  # fmt: skip
     """When coloured noise is the best explanation, try up to two deterministic effects
     first: a flexible red spectrum can stand in for slow deterministic terms (attitude
     slews, drifts, the tone of a gain error) and, once in, hide them.  Returns the
-    deterministic evaluations and state if they leave the noise white, else None; none of
-    them may clash with ``chosen`` (:func:`_clashes`)."""
-    trial, taken, ex = state, [], set(exclude)
+    deterministic evaluations and state if they leave the noise white, else None."""
+    trial, chosen, ex = state, [], set(exclude)
     for _ in range(2):
-        det = [e for e in _significant(evals, settings.alpha) if e.candidate.group != "noise"
-               and not _clashes(e, chosen + [ev for ev, _ in taken])]  # fmt: skip
+        det = [e for e in _significant(evals, settings.alpha) if e.candidate.group != "noise"]
         if not det:
             return None
         pair, trial = _take_best(data, basis, trial, det, ex, settings)
-        taken.append(pair)
+        chosen.append(pair)
         evals = tests(trial, ex)
         noise = [e for e in evals if e.candidate.group == "noise"]
         if not noise or n_tests * noise[0].p_value >= settings.alpha:
-            return taken, trial, ex
+            return chosen, trial, ex
     return None
 
 
@@ -1170,14 +1152,13 @@ def _select(data: Data, basis: np.ndarray, before: State, settings: Settings,
             len(selected) < 2 * settings.max_effects:  # fmt: skip
         evals = tests(state, exclude)
         steps.append(evals)
-        chosen = [ev for ev, _ in selected]
-        sig = [e for e in _significant(evals, settings.alpha) if not _clashes(e, chosen)]
+        sig = _significant(evals, settings.alpha)
         if not sig:
             break
         best = max(sig, key=lambda e: e.dbic)
         if best.candidate.group == "noise":
             alt = _deterministic_instead(data, basis, state, evals, settings, exclude,
-                                         len(steps[0]), tests, chosen)  # fmt: skip
+                                         len(steps[0]), tests)  # fmt: skip
             if alt is not None:
                 chosen, state, exclude = alt
                 selected += chosen
@@ -1188,10 +1169,7 @@ def _select(data: Data, basis: np.ndarray, before: State, settings: Settings,
     if len(selected) > 1:
         kept = _backward(data, basis, selected, settings, n_tests)
         if len(kept) < len(selected):
-            # the evidence found at selection was given effects now left out: each name
-            # keeps its evidence given the final model's others instead
-            selected = [(_drop_one(data, basis, [ev for ev, _ in kept], i, settings,
-                                   n_tests), alts) for i, (_, alts) in enumerate(kept)]
+            selected = kept
             state = _rebuild(data, basis, [ev for ev, _ in kept], settings)
     if settings.joint:  # issue 26.5: what the null's noise hid (tmopt.mismatch.joint)
         from tmopt.mismatch import joint

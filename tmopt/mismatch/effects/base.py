@@ -201,12 +201,6 @@ class Candidate:
     #: it "not excited" when that axis has no excitation tones -- its readout is then
     #: mostly readout noise, which is not motion.
     source_axis: int | None = None
-    #: Keys of candidates that cannot share the model with this one: together their
-    #: columns span the residual itself (an accelerometer scale ``e acc_a`` and a gain
-    #: ``g F_a``: ``acc_a - F_a`` is the equation's own left-hand side less the force,
-    #: i.e. its noise).  Once either is chosen the other is not tested
-    #: (``diagnose._clashes``).
-    excludes: tuple[str, ...] = ()
 
     @property
     def key(self) -> str:

@@ -60,10 +60,6 @@ class ReadoutScale(Effect):
             c.derived = {"e": ("ratio", None)}  # regressor is the *scaled* measured acc
             c.text = self.explanation.format(kind="acceleration", a=a, where=TMS[a])
             c.twin = kinematic_column(f"{c.key}:kin", ctx, i, i, -1.0)  # D_a = -e h^2 acc_a
-            # e acc_a + g F_a with g = -e is e (acc_a - F_a): Eq. 10's residual of axis a,
-            # noise included -- a model with both fits the noise (foreign 80052: a gain at
-            # GLR 19615 once this scale was in, GLR 19 without it)
-            c.excludes = (f"actuation_gain[{a}]",)
             out.append(c)
             out.append(self.kinematic_candidate(
                 f"disp:{a}", "e", ctx, i, i,
