@@ -1,5 +1,5 @@
 """Eq. 10's stiffness acts on the true position, not a cross-talked readout
-(docs/mismatch.md 9.12, :func:`tmopt.mismatch.diagnose._true_position_columns`).
+(docs/mismatch.md 9.12, :func:`tmopt.mismatch.diagnose._position_shift`).
 
 A displacement cross-talk ``c`` from x1 into the y1 readout puts ``c x1`` in the measured
 y1.  The accelerometer feels ``k1yy`` times the *true* y1, while the nominal stiffness

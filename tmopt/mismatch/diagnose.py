@@ -44,7 +44,6 @@ from tmopt.mismatch.fit import (
     FitResult,
     align_force_timing,
     align_kinematics,
-    axis_column,
     choose_acc_convention,
     equation_target,
     kinematic_target,
@@ -117,8 +116,8 @@ class State:
     kin_target: np.ndarray | None = None
     #: Tied twins of the selected effects: ``(equation column names, twin, term)``.
     ties: tuple = ()
-    #: Stiffness positions tied to selected kinematic columns: ``(column name, shift)``
-    #: (:func:`_true_position_columns`).
+    #: Stiffness positions tied to selected kinematic columns: ``(column name, tie)``
+    #: (:func:`_position_shift`).
     eq_ties: tuple = ()
 
     def kinematic_target(self, data: Data) -> np.ndarray:
@@ -261,8 +260,8 @@ def fit_state(data: Data, basis: np.ndarray, eq_extra: list[Column], kin_extra: 
     """Fit the nominal model plus the given extra columns, noise models re-estimated;
     ``ties``: twins whose kinematic coefficient is tied to equation coefficients
     (:func:`_tied_offset`); ``eq_ties``: stiffness positions shifted by kinematic
-    coefficients (:func:`_true_position_columns`: the equation group is fitted again once
-    they are known)."""
+    coefficients (:func:`_position_shift`: the equation group is fitted again once they
+    are known)."""
     eq_nom = nominal_equation_columns(data, basis)
     kin_nom = nominal_kinematic_columns(data)
     kind = "smoothed" if settings.noise == "coloured" else "white"
@@ -273,7 +272,7 @@ def fit_state(data: Data, basis: np.ndarray, eq_extra: list[Column], kin_extra: 
         target = target - _tied_offset(data, eq_fit, kin_nom + kin_extra, ties)
     kin_fit, kin_noise = _fit_kin(target, kin_nom + kin_extra, data.kin_layout, data.fs)
     if eq_ties:
-        eq_nom = _true_position_columns(data, basis, eq_nom, kin_fit, eq_ties)
+        eq_nom = nominal_equation_columns(data, basis, _position_shift(data, kin_fit, eq_ties))
         eq_fit, eq_noise = _fit_eq(eq_target, eq_nom + eq_extra, red, data.layout, data.fs,
                                    kind)  # fmt: skip
     return State(eq_nom + eq_extra, kin_nom + kin_extra, red, eq_fit, eq_noise, kin_fit,
@@ -281,9 +280,9 @@ def fit_state(data: Data, basis: np.ndarray, eq_extra: list[Column], kin_extra: 
                  tuple(eq_ties))  # fmt: skip
 
 
-def _true_position_columns(data: Data, basis: np.ndarray, eq_nom: list[Column],
-                           kin_fit: FitResult, eq_ties: tuple) -> list[Column]:  # fmt: skip
-    """The nominal equation columns with each stiffness acting on the *true* position.
+def _position_shift(data: Data, kin_fit: FitResult, eq_ties: tuple) -> np.ndarray:
+    """What to add to the measured positions (4, N) for each stiffness to act on the
+    *true* position (:func:`nominal_equation_columns`' ``shift``).
 
     A displacement cross-talk ``c`` from axis b into readout a (kinematic group) puts
     ``c x_b`` in the measured ``x_a``; the accelerometer feels ``k_a`` times the true
@@ -299,12 +298,7 @@ def _true_position_columns(data: Data, basis: np.ndarray, eq_nom: list[Column],
     for name, tie in eq_ties:
         a, series = tie(kin_fit.value(name))
         shift[a] += series
-    out = list(eq_nom)
-    for a, nm in enumerate(STIFFNESS_NAMES):
-        if np.any(shift[a]):
-            i = next(j for j, c in enumerate(out) if c.name == nm)
-            out[i] = Column(nm, axis_column(basis, a, data.x_eq[a] + shift[a]))
-    return out
+    return shift
 
 
 # --------------------------------------------------------------------------- evidence

@@ -466,13 +466,17 @@ def equation_target(data: Data, basis: np.ndarray) -> np.ndarray:
     return basis.T @ (data.acc - data.force)
 
 
-def nominal_equation_columns(data: Data, basis: np.ndarray) -> list[Column]:
+def nominal_equation_columns(data: Data, basis: np.ndarray,
+                             shift: np.ndarray | None = None) -> list[Column]:  # fmt: skip
     """Eqs. 12-15: stiffness ``k_a x_a`` per axis and the two bias combinations ``N' f_D``
     -- one pair per gap-free segment (``R1``, ``R2`` on the first, ``R1@s``, ``R2@s`` on
     segment s): red noise wanders across a gap, and a segment's offset from the others
-    would otherwise sit in its lowest bins, which the noise model cannot know about."""
+    would otherwise sit in its lowest bins, which the noise model cannot know about.
+    ``shift`` (4, N): added to the positions the stiffness acts on (the true position
+    under a readout cross-talk, ``diagnose._position_shift``)."""
     names = ("k1xx", "k2xx", "k1yy", "k2yy")
-    cols = [Column(nm, axis_column(basis, a, data.x_eq[a])) for a, nm in enumerate(names)]
+    x = data.x_eq if shift is None else data.x_eq + shift
+    cols = [Column(nm, axis_column(basis, a, x[a])) for a, nm in enumerate(names)]
     for s, (a, b) in enumerate(data.segments):
         for j in range(basis.shape[1]):
             v = np.zeros((basis.shape[1], data.n))

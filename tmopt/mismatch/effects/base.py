@@ -189,7 +189,7 @@ class Candidate:
     twin_tie: Callable[[float], np.ndarray] | None = None
     #: Set (kinematic candidates): how the parameter p moves a stiffness term's position,
     #: ``eq_tie(p) -> (axis, shift (N,))``; once selected, that axis' stiffness column of
-    #: Eq. 10 acts on ``x_eq + shift`` (``diagnose._true_position_columns``).
+    #: Eq. 10 acts on ``x_eq + shift`` (``diagnose._position_shift``).
     eq_tie: Callable[[float], tuple[int, np.ndarray]] | None = None
     n_searched: int = 0  # parameters found by search (counted in the BIC penalty)
     #: Its GLR's own calibrated null (a key of ``calibration.LOWFREQ_NULL``; "": chi^2):

@@ -82,7 +82,7 @@ class SensingCrossTalk(Effect):
 def _stiffness_on_true_position(ctx: Context, a: int, b: int):
     """A displacement cross-talk's place in Eq. 10: the stiffness acts on the true
     position ``x_a = x_meas,a - c x_b``, not the measured one
-    (:func:`tmopt.mismatch.diagnose._true_position_columns`)."""
+    (:func:`tmopt.mismatch.diagnose._position_shift`)."""
     xb = ctx.data.x_eq[b]
     return lambda c: (a, -c * xb)
 
