@@ -3,7 +3,7 @@
     python experiments/mismatch_benchmark.py [--quick] [--jobs 2] [--out DIR]
     python experiments/mismatch_benchmark.py --realistic [--backend kernel|foreign|both]
         [--quick] [--seed-base 40000] [--jobs 2] [--out DIR] [--summarise]
-        [--paired-with EARLIER_OUT]
+        [--paired-with EARLIER_OUT] [--summarise [--rescore] [--distinct]]
 
 ``--realistic`` (issue 26): flight-like recordings from :mod:`tmopt.mismatch.realistic`
 -- coloured noise in every channel, gaps, LPF glitch shapes, random durations (1200-3600 s),
@@ -228,6 +228,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--rescore", action="store_true",
                    help="with --realistic --summarise: score the kept reports and truths "
                         "with today's scorer (the rows file is left as it is)")
+    p.add_argument("--distinct", action="store_true",
+                   help="with --realistic --summarise: for a run made before the scorer "
+                        "had it, compute how much of each out-of-catalogue item no single "
+                        "catalogue effect can stand in for (streamed to "
+                        "realistic_ooc_distinct.jsonl, resumable; --jobs workers), then "
+                        "score with it (second rates)")
     p.add_argument("--paired-with", default=None, metavar="DIR",
                    help="with --realistic: also score only the recordings that DIR (an "
                         "earlier run's --out) scored too, both runs side by side")
@@ -242,6 +248,10 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if args.seed_base < 0:
         print("error: --seed-base must be >= 0", file=sys.stderr)
+        return 2
+    if args.distinct and not (args.realistic and args.summarise):
+        print("error: --distinct needs --realistic --summarise (it scores a finished run)",
+              file=sys.stderr)
         return 2
     if args.realistic and args.only:
         from mismatch_realistic import parse_only
