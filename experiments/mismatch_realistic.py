@@ -206,73 +206,133 @@ def visible_snr(d0, basis, state, d1) -> float:
     return math.sqrt(total)
 
 
-def _snr_left(groups: dict, extra: dict) -> float:
+def _snr_left(groups: dict, extra: list[dict]) -> float:
     """SNR of the whitened changes ``groups`` (``{group: (change, whiten, nominal
-    columns)}``) left after projecting out the nominal columns and ``extra[group]``."""
+    columns)}``) left after projecting out the nominal columns and the ``extra`` columns
+    (each ``{group: Column}``: one coefficient, in one group or tied across both)."""
     from tmopt.mismatch.diagnose import _orth
 
-    total = 0.0
+    zs, xs = [], []
     for g, (change, whiten, cols) in groups.items():
-        z = whiten(change).ravel()
-        # a column with no energy (a twin without tones on its axis) adds nothing
-        q = _orth(cols + [c for c in extra.get(g, []) if np.any(c.values)], whiten)
-        if q.size:
-            z = z - q @ (q.T @ z)
-        total += float(z @ z)
-    return math.sqrt(total)
+        q = _orth(cols, whiten)
+
+        def perp(v, q=q, whiten=whiten):
+            v = whiten(v).ravel()
+            return v - q @ (q.T @ v) if q.size else v
+
+        zs.append(perp(change))
+        xs.append(np.column_stack([perp(c[g].values) if g in c else np.zeros(zs[-1].size)
+                                   for c in extra]) if extra else None)  # fmt: skip
+    z = np.concatenate(zs)
+    if extra:
+        x = np.vstack(xs)
+        x = x[:, np.linalg.norm(x, axis=0) > 0]  # no energy (a twin without tones): nothing
+        if x.size:
+            z = z - x @ np.linalg.lstsq(x, z, rcond=None)[0]
+    return float(np.linalg.norm(z))
+
+
+def _look_alike_columns(cand) -> list[dict]:
+    """A candidate's columns for :func:`_snr_left`: its own group's, and an equation
+    candidate's tested kinematic twin tied to its (single) coefficient -- the same
+    parameter seen by both groups, as the tool tests it (``diagnose._joint``)."""
+    cols = [{cand.group: c} for c in cand.columns]
+    if cand.group == "equation" and cand.twin is not None and cand.twin_tested:
+        if len(cols) == 1:
+            cols[0]["kinematic"] = cand.twin
+        else:  # several coefficients share the twin's one: left free (a lower bound)
+            cols.append({"kinematic": cand.twin})
+    return cols
 
 
 def ooc_distinct(sc, ooc, seed: int, backend: str) -> list[dict]:
     """Scorer only: per out-of-catalogue item, how much of its signature *no single
-    catalogue effect* can stand in for -- the physical limit of reporting it unexplained.
+    catalogue effect* can stand in for -- the physical limit of reporting it unexplained
+    (:func:`distinct_snrs`; look-alikes: every catalogue candidate).  A 1e-4 Hz
+    modulation near its zero crossing is a linear drift within the record: its
+    ``distinct`` is small, and the drift's name describes the data to their precision."""
+    return distinct_snrs(sc, [], ooc, seed, backend)
 
-    As :func:`nominal_snrs` (the clean and the item-only recording, same seed and gaps,
-    prepared and fitted as the tool's first step; the change of both residual groups
-    whitened by the clean recording's noise models, the nominal columns projected out):
-    ``visible`` is that SNR, ``distinct`` the SNR left after also projecting out the
-    columns of the catalogue candidate that absorbs most of it (``look_alike``; every
-    candidate the tool would test on the item's recording, searched ones at their best
-    variant for its residual; an equation candidate's kinematic twin projected with a free
-    coefficient, so ``distinct`` is a lower bound of what the tool's tied fit leaves).
-    A 1e-4 Hz modulation near its zero crossing is a linear drift within the record: its
-    ``distinct`` is small, and the drift's name describes the data to their precision.
-    NaN where the two recordings were prepared differently."""
+
+def effect_distinct(sc, effects, seed: int, backend: str) -> list[dict]:
+    """Scorer only: per injected catalogue effect, how much of its signature no candidate
+    of *another name* -- a catalogue effect or an unnamed shape (``x|x|`` beside ``x^3``,
+    a step beside a drift) -- can stand in for: the physical limit of naming it while
+    those remain possible truths (:func:`distinct_snrs`).  Noise-like effects: NaN (no
+    deterministic signature)."""
+    from tmopt.mismatch.effects import EFFECTS
+
+    out = []
+    for e in effects:
+        if EFFECTS[e.name].noise_like:
+            out.append({"visible": math.nan, "distinct": math.nan, "look_alike": ""})
+        else:
+            out += distinct_snrs(sc, [e], [], seed, backend)
+    return out
+
+
+def distinct_snrs(sc, effects, ooc, seed: int, backend: str) -> list[dict]:
+    """Per item (each catalogue effect of ``effects``, then each of ``ooc``) alone in the
+    recording: ``visible``, the SNR that :func:`nominal_snrs` sees (the clean and the
+    item-only recording, same seed and gaps, prepared and fitted as the tool's first step;
+    the change of both residual groups whitened by the clean recording's noise models, the
+    nominal columns projected out), and ``distinct``, the SNR left after also projecting
+    out the columns of the look-alike that absorbs most of it (``look_alike``): for an
+    out-of-catalogue item every catalogue candidate, for a catalogue effect every
+    candidate of another name and every unnamed shape (:mod:`tmopt.mismatch.generic`);
+    candidates as the tool would test them on the item's recording, searched ones at their
+    best variant for its residual, a twin tied as the tool ties it
+    (:func:`_look_alike_columns`; the kinematic group by least squares where the tool
+    uses instruments).  NaN where the two recordings were prepared differently."""
+    from tmopt.mismatch import generic
     from tmopt.mismatch.diagnose import Settings, fit_state, prepare
     from tmopt.mismatch.effects import CATALOGUE, Context
-    from tmopt.mismatch.fit import data_from_recording, equation_target, kinematic_target
+    from tmopt.mismatch.fit import data_from_recording
     from tmopt.mismatch.realistic import realistic_recording
 
-    if not ooc:
+    def prepared(eff, oo):
+        return prepare(data_from_recording(realistic_recording(sc, eff, oo, seed, backend)[0]))
+
+    if not effects and not ooc:
         return []
-    d0, basis = prepare(data_from_recording(realistic_recording(sc, (), (), seed, backend)[0]))
+    d0, basis = prepared((), ())
     state = fit_state(d0, basis, [], [], False, Settings())
+    items = [([e], [], e.name) for e in effects] + [([], [o], None) for o in ooc]
     out = []
-    for o in ooc:
-        d1 = prepare(data_from_recording(realistic_recording(sc, (), [o], seed, backend)[0]))[0]
+    for eff, oo, name in items:
+        d1 = prepared(eff, oo)[0]
         if d1.n != d0.n or list(d1.segments) != list(d0.segments):
             out.append({"visible": math.nan, "distinct": math.nan, "look_alike": ""})
             continue
-        d1.stiffness, d1.acc_convention = d0.stiffness, d0.acc_convention
-        d1.__dict__.pop("_x_eq", None)
-        groups = {"equation": (equation_target(d1, basis) - equation_target(d0, basis),
-                               state.eq_noise.whiten, state.eq_cols),
-                  "kinematic": (kinematic_target(d1) - kinematic_target(d0),
-                                state.kin_noise.whiten, state.kin_cols)}  # fmt: skip
-
+        groups = _changes(d0, basis, state, d1)
         s1 = fit_state(d1, basis, [], [], False, Settings())  # the look-alikes' search
         ctx = Context(d1, basis, s1.eq_fit.residual, s1.eq_noise)
-        best = (_snr_left(groups, {}), "")
+        cands = [c for m in CATALOGUE for c in m.candidates(ctx)
+                 if c.group != "noise" and c.effect != name]  # fmt: skip
+        if name is not None:
+            cands += generic.candidates(ctx)
+        best = (_snr_left(groups, []), "")
         visible = best[0]
-        for effect in CATALOGUE:
-            for cand in effect.candidates(ctx):
-                if cand.group == "noise":
-                    continue
-                extra = {cand.group: list(cand.columns)}
-                if cand.group == "equation" and cand.twin is not None:
-                    extra["kinematic"] = [cand.twin]
-                best = min(best, (_snr_left(groups, extra), cand.key))
+        for cand in cands:
+            extra = _look_alike_columns(cand)
+            label = cand.key if cand.effect != generic.GENERIC else \
+                f"{cand.effect}:{cand.fixed.get('feature')}[{cand.channel}]"  # fmt: skip
+            best = min(best, (_snr_left(groups, extra), label))
         out.append({"visible": visible, "distinct": best[0], "look_alike": best[1]})
     return out
+
+
+def _changes(d0, basis, state, d1) -> dict:
+    """``{group: (change of d1 from d0, whiten, nominal columns)}`` in ``state``'s (the
+    nominal fit of ``d0``) metric; ``d1`` takes ``d0``'s exact kinematics."""
+    from tmopt.mismatch.fit import equation_target, kinematic_target
+
+    d1.stiffness, d1.acc_convention = d0.stiffness, d0.acc_convention
+    d1.__dict__.pop("_x_eq", None)
+    return {"equation": (equation_target(d1, basis) - equation_target(d0, basis),
+                         state.eq_noise.whiten, state.eq_cols),
+            "kinematic": (kinematic_target(d1) - kinematic_target(d0),
+                          state.kin_noise.whiten, state.kin_cols)}  # fmt: skip
 
 
 def _ooc_start(name: str) -> float:
@@ -299,6 +359,7 @@ def run_case(case: dict) -> dict:
     truth["snr"] = snrs
     truth["snr_nominal"] = nominal_snrs(sc, effects, case["seed"], case["backend"])
     truth["ooc_distinct"] = ooc_distinct(sc, ooc, case["seed"], case["backend"])
+    truth["effect_distinct"] = effect_distinct(sc, effects, case["seed"], case["backend"])
     try:
         rep = build_report(diagnose(data_from_recording(rec)))
     except Exception:  # noqa: BLE001 - a traceback is what this benchmark counts
@@ -348,6 +409,17 @@ def score(rep: dict, truth: dict) -> dict:
             and not extra  # fmt: skip
     if truth.get("ooc_distinct") is not None:  # second rates: the physical limit
         row.update(_distinct_scores(rep, truth, extra, row))
+    if truth.get("effect_distinct") is not None:
+        dist = [d["distinct"] for d in truth["effect_distinct"]]
+        # NaN (noise-like, or prepared differently): as the scaler saw it
+        seen = [e for e, s, d in zip(truth["effects"], snr, dist)
+                if s >= IDENTIFIABLE_SNR and not d < IDENTIFIABLE_SNR
+                and not _untestable(rep, e["name"])]  # fmt: skip
+        row["n_identifiable_distinct"] = len(seen)
+        row["attributed_distinct"] = bool(seen) and all(e["name"] in names for e in seen) \
+            and not extra  # fmt: skip
+        row["effect_distinct"] = ";".join(f"{d:.1f}" for d in dist)
+        row["effect_look_alike"] = ";".join(d["look_alike"] for d in truth["effect_distinct"])
     row["false_alarm"] = not truth["effects"] and not truth.get("out_of_catalogue") and bool(
         rep.get("mismatch_detected"))
     oocs = truth.get("out_of_catalogue", [])
@@ -387,20 +459,25 @@ def _rescored(row: dict, reports: Path, distinct: dict | None = None) -> dict:
     if "traceback" in row or "error" in row or not (rep.exists() and tru.exists()):
         return row
     truth = json.loads(tru.read_text())
+    key = (row["backend"], row["seed"])
     if distinct is not None and "ooc_distinct" not in truth:
-        key = (row["backend"], row["seed"])
         if key in distinct or not truth.get("out_of_catalogue"):
-            truth["ooc_distinct"] = distinct.get(key, [])
+            truth["ooc_distinct"] = distinct.get(key, {}).get("ooc_distinct", [])
+    if distinct is not None and "effect_distinct" not in truth and \
+            "effect_distinct" in distinct.get(key, {}):  # fmt: skip
+        truth["effect_distinct"] = distinct[key]["effect_distinct"]
     return {**row, **score(json.loads(rep.read_text()), truth)}
 
 
 def distinct_job(job: tuple[str, int, int]) -> dict:
-    """:func:`ooc_distinct` of one benchmark case ``(backend, seed base, seed)``."""
+    """:func:`ooc_distinct` and :func:`effect_distinct` of one benchmark case ``(backend,
+    seed base, seed)``."""
     backend, base, seed = job
     case = next(c for c in cases(backend, base, False) if c["seed"] == seed)
-    sc, _, ooc, _ = build(case)
+    sc, effects, ooc, _ = build(case)
     return {"backend": backend, "seed": seed,
-            "ooc_distinct": ooc_distinct(sc, ooc, seed, backend)}  # fmt: skip
+            "ooc_distinct": ooc_distinct(sc, ooc, seed, backend),
+            "effect_distinct": effect_distinct(sc, effects, seed, backend)}  # fmt: skip
 
 
 def backfill_distinct(out: Path, base: int, jobs: int) -> dict:
@@ -409,10 +486,11 @@ def backfill_distinct(out: Path, base: int, jobs: int) -> dict:
     returns them by ``(backend, seed)``."""
     path = out / "realistic_ooc_distinct.jsonl"
     have = [json.loads(x) for x in path.read_text().splitlines() if x] if path.exists() else []
-    done = {(r["backend"], r["seed"]) for r in have}
+    done = {(r["backend"], r["seed"]) for r in have if "effect_distinct" in r}
     rows = [json.loads(x) for x in (out / "realistic_rows.jsonl").read_text().splitlines() if x]
     todo = [(r["backend"], base, r["seed"]) for r in rows
-            if r.get("n_ooc") and (r["backend"], r["seed"]) not in done]  # fmt: skip
+            if (r.get("n_ooc") or r.get("n_identifiable"))
+            and (r["backend"], r["seed"]) not in done]  # fmt: skip
     with open(path, "a") as fh, mp.get_context("spawn").Pool(max(1, min(jobs, len(todo)))) as pool:
         for i, rec in enumerate(pool.imap_unordered(distinct_job, todo)):
             have.append(rec)
@@ -420,8 +498,12 @@ def backfill_distinct(out: Path, base: int, jobs: int) -> dict:
             fh.flush()
             print(f"[distinct {i + 1}/{len(todo)}] {rec['backend']} {rec['seed']}: "
                   + ", ".join(f"{d['distinct']:.1f} ({d['look_alike']})"
-                              for d in rec["ooc_distinct"]), flush=True)  # fmt: skip
-    return {(r["backend"], r["seed"]): r["ooc_distinct"] for r in have}
+                              for d in rec["effect_distinct"] + rec["ooc_distinct"]),
+                  flush=True)  # fmt: skip
+    by = {}
+    for r in have:  # a later record (with effect_distinct) completes an earlier one
+        by.setdefault((r["backend"], r["seed"]), {}).update(r)
+    return by
 
 
 def _untestable(rep: dict, name: str) -> bool:
@@ -448,15 +530,23 @@ def _nominal_line(ok: list[dict]) -> list[str]:
 
 def _distinct_lines(ok: list[dict], ooc: list[dict]) -> list[str]:
     """Second rates against what the data can tell (rows scored with
-    :func:`ooc_distinct` only, :func:`_distinct_scores`); the headline rates above keep
-    every recording."""
+    :func:`effect_distinct` / :func:`ooc_distinct` only, :func:`_distinct_scores`); the
+    headline rates above keep every recording."""
+    out = []
+    carry = [r for r in ok if "n_identifiable_distinct" in r]
+    if carry:
+        ident = [r for r in carry if r["n_identifiable_distinct"]]
+        out.append("| attribution, identifiable and distinguishable from every look-alike of "
+                   f"another name, catalogue or unnamed (second rate; {len(carry)} rows "
+                   f"carry it) | {_frac(sum(r['attributed_distinct'] for r in ident), len(ident))}"
+                   " | >= 95 % |")  # fmt: skip
     have = [r for r in ok if "wrong_distinct" in r]
     if not have:
-        return []
+        return out
     seen = [r for r in ooc if r.get("ooc_distinguishable")]
     oo = sum(bool(r.get("ooc_unexplained_right_channel")) for r in seen)
     n_ooc = sum("ooc_distinguishable" in r for r in ooc)
-    return [
+    return out + [
         "| out-of-catalogue at the right channel, no name -- items distinguishable from "
         f"every single catalogue effect (second rate; {len(seen)} of {n_ooc} are) | "
         f"{_frac(oo, len(seen))} | >= 90 % |",

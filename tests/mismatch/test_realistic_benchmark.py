@@ -136,3 +136,30 @@ def test_a_modulation_through_its_zero_crossing_is_a_drift_and_a_line_is_not(ben
     assert m["visible"] > 15.0 and m["look_alike"].startswith("bias_drift")
     assert m["distinct"] < 0.1 * m["visible"]
     assert ln["visible"] > 15.0 and ln["distinct"] > 0.9 * ln["visible"]
+
+
+def test_an_accelerometer_scale_cannot_stand_in_for_a_gain_its_twin_is_tied(bench):
+    """Scored as the tool tests it: an accelerometer scale's Eq. 10 column spans a gain's
+    ``g f`` once the stiffness is free, but the same parameter also moves the kinematic
+    check (its tied twin), which a gain leaves alone -- so a gain stays distinct from it.
+    Projected with the twin free, the scale would absorb the gain entirely."""
+    _, mr = bench
+    from tmopt.mismatch.diagnose import Settings, fit_state, prepare
+    from tmopt.mismatch.effects import CATALOGUE, Context, Injection
+    from tmopt.mismatch.fit import data_from_recording
+    from tmopt.mismatch.realistic import draw_scenario, realistic_recording
+
+    sc = replace(draw_scenario(7, "kernel"), duration=1200.0, sample_rate=2.0)
+    gain = Injection("actuation_gain", 5e-4, "x1")
+    d0, basis = prepare(data_from_recording(realistic_recording(sc, (), (), 7, "kernel")[0]))
+    d1 = prepare(data_from_recording(realistic_recording(sc, [gain], (), 7, "kernel")[0]))[0]
+    state = fit_state(d0, basis, [], [], False, Settings())
+    groups = mr._changes(d0, basis, state, d1)
+    scale = next(c for m in CATALOGUE for c in m.candidates(Context(d1, basis))
+                 if c.key == "readout_scale[acc:x1]")  # fmt: skip
+    visible = mr._snr_left(groups, [])
+    tied = mr._snr_left(groups, mr._look_alike_columns(scale))
+    free = mr._snr_left(groups, [{"equation": scale.columns[0]}, {"kinematic": scale.twin}])
+    assert visible > 15.0
+    assert tied > 0.5 * visible
+    assert free < 0.05 * visible
