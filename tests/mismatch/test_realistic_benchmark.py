@@ -163,3 +163,11 @@ def test_an_accelerometer_scale_cannot_stand_in_for_a_gain_its_twin_is_tied(benc
     assert visible > 15.0
     assert tied > 0.5 * visible
     assert free < 0.05 * visible
+
+
+def test_distinct_refuses_to_run_a_benchmark_in_one_line(bench, capsys):
+    """``--distinct`` scores a finished run; asked to run one it says so and stops."""
+    mb, _ = bench
+    assert mb.main(["--realistic", "--distinct"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--distinct" in err[0] and "--summarise" in err[0]
