@@ -102,8 +102,10 @@ def _onset_search(ctx: Context, shape, base=None) -> list[tuple[float, int, floa
 #: nearly a spike at its onset, and its statistic falls from 1644 at the true onset to 57
 #: three seconds off (foreign 50112; a stiffness step, foreign 40131: 3301 to 3.4), while
 #: the coarse grid is ~10-40 s apart -- the step feature never competed and a glitch with a
-#: 362 s decay plus a drift took its place.  Off: not yet checked on never-seen recordings.
-FINE_ONSETS = False
+#: 362 s decay plus a drift took its place.  On since stop 37: paired on 300 never-seen
+#: recordings (110000+, docs/mismatch.md 9.7 "Twelfth run") it changed 9, none for the
+#: worse that the data could tell (wrong names 8 -> 5, no false alarm, no attribution lost).
+FINE_ONSETS = True
 #: Sub-sample onsets tried between two samples (the force averaged over each sample).
 N_FRACTIONS = 8
 #: Best approximate onsets per axis re-evaluated exactly.
