@@ -230,9 +230,9 @@ def main(argv: list[str] | None = None) -> int:
                         "with today's scorer (the rows file is left as it is)")
     p.add_argument("--distinct", action="store_true",
                    help="with --realistic --summarise: for a run made before the scorer "
-                        "had it, compute how much of each out-of-catalogue item no single "
-                        "catalogue effect can stand in for (streamed to "
-                        "realistic_ooc_distinct.jsonl, resumable; --jobs workers), then "
+                        "had it, compute the physical limit -- how much of each injected "
+                        "item no look-alike can stand in for (streamed to "
+                        "realistic_ooc_distinct.jsonl, resumable; --jobs workers) -- then "
                         "score with it (second rates)")
     p.add_argument("--paired-with", default=None, metavar="DIR",
                    help="with --realistic: also score only the recordings that DIR (an "

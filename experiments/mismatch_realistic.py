@@ -145,65 +145,102 @@ def build(case: dict):
     return sc, effects, ooc, snrs
 
 
-def nominal_snrs(sc, effects, seed: int, backend: str) -> list[float]:
-    """Scorer only (the tool is not changed by it): per injected catalogue effect, the SNR
-    of its signature that the *nominal model leaves visible*, in the nominal fit's own
-    metric -- the clean recording (same seed and gaps as the one diagnosed) prepared and
-    fitted as the tool's first step does (:func:`tmopt.mismatch.diagnose.prepare`,
-    ``fit_state``: clocks aligned, the noise model estimated from the recording's own
-    residual), the effect's
-    change of both residual groups whitened by those noise models and cleared of the
-    nominal columns (stiffness, bias and offsets per segment).
+def limits(sc, effects, ooc, seed: int, backend: str) -> tuple[list[dict], list[dict]]:
+    """Scorer only (the tool never sees it): per injected item alone in the recording --
+    each catalogue effect of ``effects``, each of ``ooc`` -- ``{"visible", "distinct",
+    "look_alike"}``; returns (per effect, per out-of-catalogue item).
 
-    The scaler's SNR (:func:`tmopt.mismatch.realistic.signature_snr`) is an optimal
-    filter's against the noise of two clean recordings' difference; it does not see what
-    a stiffness fit absorbs (under a controller whose force is nearly proportional to the
-    position an actuation gain is largely a stiffness change) nor the deterministic misfit
-    a recording's own residual holds.  NaN for noise-like effects and where the two
+    ``visible``: the SNR of the item's signature that the *nominal model leaves visible*,
+    in the nominal fit's own metric -- the clean recording (same seed and gaps as the one
+    diagnosed) prepared and fitted as the tool's first step does
+    (:func:`tmopt.mismatch.diagnose.prepare`, ``fit_state``: clocks aligned, the noise
+    model estimated from the recording's own residual), the item's change of both residual
+    groups whitened by those noise models and cleared of the nominal columns (stiffness,
+    bias and offsets per segment) -- the second attribution rate's SNR.  The scaler's SNR
+    (:func:`tmopt.mismatch.realistic.signature_snr`) is an optimal filter's against the
+    noise of two clean recordings' difference; it does not see what a stiffness fit
+    absorbs (under a controller whose force is nearly proportional to the position an
+    actuation gain is largely a stiffness change) nor the deterministic misfit a
+    recording's own residual holds.
+
+    ``distinct``: the SNR left after also projecting out the columns of the look-alike
+    that absorbs most of it (``look_alike``) -- the physical limit (docs/mismatch.md
+    9.13): for an out-of-catalogue item every catalogue candidate (a 1e-4 Hz modulation
+    near its zero crossing is a drift within the record), for a catalogue effect every
+    candidate of another name and every unnamed shape (:mod:`tmopt.mismatch.generic`:
+    ``x|x|`` beside ``x^3``); candidates as the tool would test them on the item's
+    recording, searched ones at their best variant for its residual, a twin tied as the
+    tool ties it (:func:`_look_alike_columns`; the kinematic group by least squares where
+    the tool uses instruments).
+
+    All NaN for noise-like effects (no deterministic signature) and where the two
     recordings were prepared differently (another clock alignment)."""
     from tmopt.mismatch.diagnose import Settings, fit_state, prepare
     from tmopt.mismatch.effects import EFFECTS
     from tmopt.mismatch.fit import data_from_recording
     from tmopt.mismatch.realistic import realistic_recording
 
-    if not effects:
-        return []
-    rec0, _ = realistic_recording(sc, (), (), seed, backend)
-    d0, basis = prepare(data_from_recording(rec0))
+    def prepared(eff, oo):
+        return prepare(data_from_recording(realistic_recording(sc, eff, oo, seed, backend)[0]))
+
+    if not effects and not ooc:
+        return [], []
+    d0, basis = prepared((), ())
     state = fit_state(d0, basis, [], [], False, Settings())
-    out = []
-    for e in effects:
-        if EFFECTS[e.name].noise_like:
-            out.append(math.nan)
-            continue
-        rec1, _ = realistic_recording(sc, [e], (), seed, backend)
-        out.append(visible_snr(d0, basis, state, prepare(data_from_recording(rec1))[0]))
-    return out
+    unknown = {"visible": math.nan, "distinct": math.nan, "look_alike": ""}
+    per_effect = [dict(unknown) if EFFECTS[e.name].noise_like else
+                  _limit(d0, basis, state, prepared([e], ())[0], e.name) for e in effects]
+    per_ooc = [_limit(d0, basis, state, prepared((), [o])[0], None) for o in ooc]
+    return per_effect, per_ooc
+
+
+def _limit(d0, basis, state, d1, name: str | None) -> dict:
+    """:func:`limits` of one item-only recording ``d1`` (``name``: its catalogue effect;
+    None: an out-of-catalogue item)."""
+    from tmopt.mismatch import generic
+    from tmopt.mismatch.diagnose import Settings, fit_state
+    from tmopt.mismatch.effects import CATALOGUE, Context
+
+    groups = _changes(d0, basis, state, d1)
+    if groups is None:
+        return {"visible": math.nan, "distinct": math.nan, "look_alike": ""}
+    s1 = fit_state(d1, basis, [], [], False, Settings())  # the look-alikes' search
+    ctx = Context(d1, basis, s1.eq_fit.residual, s1.eq_noise)
+    cands = [c for m in CATALOGUE for c in m.candidates(ctx)
+             if c.group != "noise" and c.effect != name]  # fmt: skip
+    if name is not None:
+        cands += generic.candidates(ctx)
+    best = (_snr_left(groups, []), "")
+    visible = best[0]
+    for cand in cands:
+        label = cand.key if cand.effect != generic.GENERIC else \
+            f"{cand.effect}:{cand.fixed.get('feature')}[{cand.channel}]"  # fmt: skip
+        best = min(best, (_snr_left(groups, _look_alike_columns(cand)), label))
+    return {"visible": visible, "distinct": best[0], "look_alike": best[1]}
 
 
 def visible_snr(d0, basis, state, d1) -> float:
     """SNR of ``d1``'s change from the clean ``d0`` (both prepared) in ``state``'s (the
     nominal fit of ``d0``) whitened metric, both residual groups, with the nominal
     columns projected out; NaN where the two were prepared differently."""
-    from tmopt.mismatch.diagnose import _orth
+    groups = _changes(d0, basis, state, d1)
+    return math.nan if groups is None else _snr_left(groups, [])
+
+
+def _changes(d0, basis, state, d1) -> dict | None:
+    """``{group: (change of d1 from d0, whiten, nominal columns)}`` in ``state``'s (the
+    nominal fit of ``d0``) metric, ``d1`` given ``d0``'s exact kinematics; None where the
+    two were prepared differently (other samples or segments)."""
     from tmopt.mismatch.fit import equation_target, kinematic_target
 
     if d1.n != d0.n or list(d1.segments) != list(d0.segments):
-        return math.nan
+        return None
     d1.stiffness, d1.acc_convention = d0.stiffness, d0.acc_convention
     d1.__dict__.pop("_x_eq", None)
-    total = 0.0
-    for change, whiten, cols in (
-            (equation_target(d1, basis) - equation_target(d0, basis), state.eq_noise.whiten,
-             state.eq_cols),
-            (kinematic_target(d1) - kinematic_target(d0), state.kin_noise.whiten,
-             state.kin_cols)):  # fmt: skip
-        z = whiten(change).ravel()
-        q = _orth(cols, whiten)
-        if q.size:
-            z = z - q @ (q.T @ z)
-        total += float(z @ z)
-    return math.sqrt(total)
+    return {"equation": (equation_target(d1, basis) - equation_target(d0, basis),
+                         state.eq_noise.whiten, state.eq_cols),
+            "kinematic": (kinematic_target(d1) - kinematic_target(d0),
+                          state.kin_noise.whiten, state.kin_cols)}  # fmt: skip
 
 
 def _snr_left(groups: dict, extra: list[dict]) -> float:
@@ -245,96 +282,6 @@ def _look_alike_columns(cand) -> list[dict]:
     return cols
 
 
-def ooc_distinct(sc, ooc, seed: int, backend: str) -> list[dict]:
-    """Scorer only: per out-of-catalogue item, how much of its signature *no single
-    catalogue effect* can stand in for -- the physical limit of reporting it unexplained
-    (:func:`distinct_snrs`; look-alikes: every catalogue candidate).  A 1e-4 Hz
-    modulation near its zero crossing is a linear drift within the record: its
-    ``distinct`` is small, and the drift's name describes the data to their precision."""
-    return distinct_snrs(sc, [], ooc, seed, backend)
-
-
-def effect_distinct(sc, effects, seed: int, backend: str) -> list[dict]:
-    """Scorer only: per injected catalogue effect, how much of its signature no candidate
-    of *another name* -- a catalogue effect or an unnamed shape (``x|x|`` beside ``x^3``,
-    a step beside a drift) -- can stand in for: the physical limit of naming it while
-    those remain possible truths (:func:`distinct_snrs`).  Noise-like effects: NaN (no
-    deterministic signature)."""
-    from tmopt.mismatch.effects import EFFECTS
-
-    out = []
-    for e in effects:
-        if EFFECTS[e.name].noise_like:
-            out.append({"visible": math.nan, "distinct": math.nan, "look_alike": ""})
-        else:
-            out += distinct_snrs(sc, [e], [], seed, backend)
-    return out
-
-
-def distinct_snrs(sc, effects, ooc, seed: int, backend: str) -> list[dict]:
-    """Per item (each catalogue effect of ``effects``, then each of ``ooc``) alone in the
-    recording: ``visible``, the SNR that :func:`nominal_snrs` sees (the clean and the
-    item-only recording, same seed and gaps, prepared and fitted as the tool's first step;
-    the change of both residual groups whitened by the clean recording's noise models, the
-    nominal columns projected out), and ``distinct``, the SNR left after also projecting
-    out the columns of the look-alike that absorbs most of it (``look_alike``): for an
-    out-of-catalogue item every catalogue candidate, for a catalogue effect every
-    candidate of another name and every unnamed shape (:mod:`tmopt.mismatch.generic`);
-    candidates as the tool would test them on the item's recording, searched ones at their
-    best variant for its residual, a twin tied as the tool ties it
-    (:func:`_look_alike_columns`; the kinematic group by least squares where the tool
-    uses instruments).  NaN where the two recordings were prepared differently."""
-    from tmopt.mismatch import generic
-    from tmopt.mismatch.diagnose import Settings, fit_state, prepare
-    from tmopt.mismatch.effects import CATALOGUE, Context
-    from tmopt.mismatch.fit import data_from_recording
-    from tmopt.mismatch.realistic import realistic_recording
-
-    def prepared(eff, oo):
-        return prepare(data_from_recording(realistic_recording(sc, eff, oo, seed, backend)[0]))
-
-    if not effects and not ooc:
-        return []
-    d0, basis = prepared((), ())
-    state = fit_state(d0, basis, [], [], False, Settings())
-    items = [([e], [], e.name) for e in effects] + [([], [o], None) for o in ooc]
-    out = []
-    for eff, oo, name in items:
-        d1 = prepared(eff, oo)[0]
-        if d1.n != d0.n or list(d1.segments) != list(d0.segments):
-            out.append({"visible": math.nan, "distinct": math.nan, "look_alike": ""})
-            continue
-        groups = _changes(d0, basis, state, d1)
-        s1 = fit_state(d1, basis, [], [], False, Settings())  # the look-alikes' search
-        ctx = Context(d1, basis, s1.eq_fit.residual, s1.eq_noise)
-        cands = [c for m in CATALOGUE for c in m.candidates(ctx)
-                 if c.group != "noise" and c.effect != name]  # fmt: skip
-        if name is not None:
-            cands += generic.candidates(ctx)
-        best = (_snr_left(groups, []), "")
-        visible = best[0]
-        for cand in cands:
-            extra = _look_alike_columns(cand)
-            label = cand.key if cand.effect != generic.GENERIC else \
-                f"{cand.effect}:{cand.fixed.get('feature')}[{cand.channel}]"  # fmt: skip
-            best = min(best, (_snr_left(groups, extra), label))
-        out.append({"visible": visible, "distinct": best[0], "look_alike": best[1]})
-    return out
-
-
-def _changes(d0, basis, state, d1) -> dict:
-    """``{group: (change of d1 from d0, whiten, nominal columns)}`` in ``state``'s (the
-    nominal fit of ``d0``) metric; ``d1`` takes ``d0``'s exact kinematics."""
-    from tmopt.mismatch.fit import equation_target, kinematic_target
-
-    d1.stiffness, d1.acc_convention = d0.stiffness, d0.acc_convention
-    d1.__dict__.pop("_x_eq", None)
-    return {"equation": (equation_target(d1, basis) - equation_target(d0, basis),
-                         state.eq_noise.whiten, state.eq_cols),
-            "kinematic": (kinematic_target(d1) - kinematic_target(d0),
-                          state.kin_noise.whiten, state.kin_cols)}  # fmt: skip
-
-
 def _ooc_start(name: str) -> float:
     from tmopt.mismatch.realistic import OUT_OF_CATALOGUE
 
@@ -357,9 +304,9 @@ def run_case(case: dict) -> dict:
     except Exception as exc:  # a diverged loop is reported, not hidden
         return {**ids, "error": f"generation: {type(exc).__name__}: {exc}"}
     truth["snr"] = snrs
-    truth["snr_nominal"] = nominal_snrs(sc, effects, case["seed"], case["backend"])
-    truth["ooc_distinct"] = ooc_distinct(sc, ooc, case["seed"], case["backend"])
-    truth["effect_distinct"] = effect_distinct(sc, effects, case["seed"], case["backend"])
+    per_effect, per_ooc = limits(sc, effects, ooc, case["seed"], case["backend"])
+    truth["snr_nominal"] = [d["visible"] for d in per_effect]
+    truth["ooc_distinct"], truth["effect_distinct"] = per_ooc, per_effect
     try:
         rep = build_report(diagnose(data_from_recording(rec)))
     except Exception:  # noqa: BLE001 - a traceback is what this benchmark counts
@@ -408,7 +355,7 @@ def score(rep: dict, truth: dict) -> dict:
         row["attributed_nominal"] = bool(seen) and all(e["name"] in names for e in seen) \
             and not extra  # fmt: skip
     if truth.get("ooc_distinct") is not None:  # second rates: the physical limit
-        row.update(_distinct_scores(rep, truth, extra, row))
+        row.update(_distinct_scores(rep, truth, extra))
     if truth.get("effect_distinct") is not None:
         dist = [d["distinct"] for d in truth["effect_distinct"]]
         # NaN (noise-like, or prepared differently): as the scaler saw it
@@ -431,8 +378,8 @@ def score(rep: dict, truth: dict) -> dict:
     return row
 
 
-def _distinct_scores(rep: dict, truth: dict, extra: list[str], row: dict) -> dict:
-    """Scores against what the data can tell (:func:`ooc_distinct`): an out-of-catalogue
+def _distinct_scores(rep: dict, truth: dict, extra: list[str]) -> dict:
+    """Scores against what the data can tell (:func:`limits`): an out-of-catalogue
     item whose ``distinct`` SNR is below IDENTIFIABLE_SNR is, within the record's
     precision, its look-alike catalogue effect -- naming that effect at that channel is
     not counted wrong, and the item is not counted in the out-of-catalogue rate.  The
@@ -452,8 +399,8 @@ def _distinct_scores(rep: dict, truth: dict, extra: list[str], row: dict) -> dic
 def _rescored(row: dict, reports: Path, distinct: dict | None = None) -> dict:
     """``row`` scored again from its kept report and truth (the rows file is not changed;
     a row without them, or a traceback, is returned as it was).  ``distinct``: the
-    out-of-catalogue items' :func:`ooc_distinct` computed afterwards for a run made before
-    it existed (``--distinct``), by ``(backend, seed)``."""
+    :func:`limits` computed afterwards for a run made before they existed
+    (``--distinct``), by ``(backend, seed)``."""
     name = f"{row['backend']}_{row['category']}_{row['seed']}"
     rep, tru = reports / f"{name}.report.json", reports / f"{name}.truth.json"
     if "traceback" in row or "error" in row or not (rep.exists() and tru.exists()):
@@ -470,20 +417,19 @@ def _rescored(row: dict, reports: Path, distinct: dict | None = None) -> dict:
 
 
 def distinct_job(job: tuple[str, int, int]) -> dict:
-    """:func:`ooc_distinct` and :func:`effect_distinct` of one benchmark case ``(backend,
-    seed base, seed)``."""
+    """:func:`limits` of one benchmark case ``(backend, seed base, seed)``."""
     backend, base, seed = job
     case = next(c for c in cases(backend, base, False) if c["seed"] == seed)
     sc, effects, ooc, _ = build(case)
-    return {"backend": backend, "seed": seed,
-            "ooc_distinct": ooc_distinct(sc, ooc, seed, backend),
-            "effect_distinct": effect_distinct(sc, effects, seed, backend)}  # fmt: skip
+    per_effect, per_ooc = limits(sc, effects, ooc, seed, backend)
+    return {"backend": backend, "seed": seed, "ooc_distinct": per_ooc,
+            "effect_distinct": per_effect}  # fmt: skip
 
 
 def backfill_distinct(out: Path, base: int, jobs: int) -> dict:
-    """``--distinct``: :func:`ooc_distinct` of every out-of-catalogue row of a run made
-    before the scorer had it, streamed to ``realistic_ooc_distinct.jsonl`` (resumable);
-    returns them by ``(backend, seed)``."""
+    """``--distinct``: :func:`limits` of every row of a run made before the scorer had
+    them that holds an out-of-catalogue item or an identifiable effect, streamed to
+    ``realistic_ooc_distinct.jsonl`` (resumable); returns them by ``(backend, seed)``."""
     path = out / "realistic_ooc_distinct.jsonl"
     have = [json.loads(x) for x in path.read_text().splitlines() if x] if path.exists() else []
     done = {(r["backend"], r["seed"]) for r in have if "effect_distinct" in r}
@@ -517,7 +463,7 @@ def _frac(k: int, n: int) -> str:
 
 def _nominal_line(ok: list[dict]) -> list[str]:
     """The second attribution rate (rows scored with ``snr_nominal`` only): identifiable =
-    SNR >= IDENTIFIABLE_SNR after the nominal fit (:func:`nominal_snrs`); the headline
+    SNR >= IDENTIFIABLE_SNR after the nominal fit (:func:`limits`' ``visible``); the headline
     rate above keeps every recording."""
     have = [r for r in ok if "n_identifiable_nominal" in r]
     if not have:
@@ -529,8 +475,8 @@ def _nominal_line(ok: list[dict]) -> list[str]:
 
 
 def _distinct_lines(ok: list[dict], ooc: list[dict]) -> list[str]:
-    """Second rates against what the data can tell (rows scored with
-    :func:`effect_distinct` / :func:`ooc_distinct` only, :func:`_distinct_scores`); the
+    """Second rates against what the data can tell (rows scored with :func:`limits`
+    only, :func:`_distinct_scores`); the
     headline rates above keep every recording."""
     out = []
     carry = [r for r in ok if "n_identifiable_distinct" in r]

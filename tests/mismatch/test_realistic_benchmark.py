@@ -122,7 +122,7 @@ def test_a_look_alike_the_data_cannot_tell_apart_is_excused_only_in_the_second_r
 
 
 def test_a_modulation_through_its_zero_crossing_is_a_drift_and_a_line_is_not(bench):
-    """The physical limit itself (:func:`ooc_distinct`), on a 1200 s record: a 1e-4 Hz
+    """The physical limit itself (:func:`limits`), on a 1200 s record: a 1e-4 Hz
     modulation centred on its zero crossing (0.12 of a cycle) is within a few percent a
     ramp -- a drift takes almost all of it --; a force line at 0.05 Hz is nothing any
     catalogue effect can stand in for."""
@@ -132,7 +132,8 @@ def test_a_modulation_through_its_zero_crossing_is_a_drift_and_a_line_is_not(ben
     sc = replace(draw_scenario(7, "kernel"), duration=1200.0, sample_rate=2.0)
     mod = OOC("bias_modulation", 3e-12, "x1", {"phase": -2 * np.pi * 1e-4 * 600.0})
     line = OOC("unmodelled_line", 1e-12, "x1", {"f_hz": 0.05, "phase": 0.3})
-    (m, ln) = mr.ooc_distinct(sc, [mod, line], 7, "kernel")
+    per_effect, (m, ln) = mr.limits(sc, [], [mod, line], 7, "kernel")
+    assert per_effect == []
     assert m["visible"] > 15.0 and m["look_alike"].startswith("bias_drift")
     assert m["distinct"] < 0.1 * m["visible"]
     assert ln["visible"] > 15.0 and ln["distinct"] > 0.9 * ln["visible"]
