@@ -13,7 +13,8 @@ shape check live in), for every axis a:
   linear drift on a fitted, noise under that model (what ``diagnose.shape_misfits`` tests);
 * ``shape1``: the same GLR with the noise re-estimated with P2, P3 fitted too (the
   alternative's noise, as the joint stage, 9.9);
-* ``drift0``: the drift column's GLR against the nominal fit (null noise).
+* ``drift0``: the drift column's GLR against the nominal fit (null noise);
+* ``timing0``: the readout timing feature's GLR (kinematic group, excited axes only).
 
 ``--clean``: clean flight-like recordings (calibration seeds) of both simulators: the null.
 ``--cases``: benchmark recordings (``backend:seed`` of the realistic set at ``--seed-base``):
@@ -67,6 +68,26 @@ def _stats(data, basis) -> dict:
         fit_s, noise_s = _fit_eq(target, nom + [dcol] + shape, False, data.layout, data.fs,
                                  "smoothed")  # fmt: skip
         out["shape1"].append(_Group(target, nom + [dcol], fit_d, noise_s.whiten).glr(shape))
+    out["timing0"] = _timing_stats(data, basis)
+    return out
+
+
+def _timing_stats(data, basis) -> list[float]:
+    """The readout timing feature's GLR per axis (``generic._readout_timings``; NaN on an
+    axis without excitation tones) in the kinematic group against the nominal fit: what
+    the selection's first step tests."""
+    from tmopt.mismatch import generic
+    from tmopt.mismatch.diagnose import Settings, _IVGroup, fit_state
+    from tmopt.mismatch.effects.base import Context
+    from tmopt.mismatch.fit import AXES
+
+    state = fit_state(data, basis, [], [], False, Settings())
+    group = _IVGroup(state.kinematic_target(data), state.kin_cols, state.kin_noise.whiten,
+                     state.kin_fit.residual, data.fs, data.kin_layout)  # fmt: skip
+    ctx = Context(data, basis, state.eq_fit.residual, state.eq_noise)
+    out = [math.nan] * len(AXES)
+    for cand in generic._readout_timings(ctx):
+        out[AXES.index(cand.channel.split()[0])] = group.glr(cand.columns)
     return out
 
 
@@ -102,7 +123,8 @@ def case_row(backend: str, seed: int, seed_base: int) -> dict:
 
 
 #: The statistics calibrated: name in calibration.LOWFREQ_NULL, probe key, chi^2 dof.
-CALIBRATED = (("ramp", "drift0", 1), ("curvature", "curv0", 1), ("shape", "shape0", 2))
+CALIBRATED = (("ramp", "drift0", 1), ("curvature", "curv0", 1), ("shape", "shape0", 2),
+              ("timing", "timing0", 1))
 
 
 def fit_null(values: np.ndarray, dof: int) -> tuple[float, float]:
@@ -122,6 +144,14 @@ def fit_null(values: np.ndarray, dof: int) -> tuple[float, float]:
     return round(best[1], 3), round(best[2], 1)
 
 
+def _values(rows: list[dict], key: str, backend: str) -> np.ndarray:
+    """Pooled per-axis values of one statistic (rows without it -- an older probe -- and
+    NaN, an axis it does not apply to, left out)."""
+    v = np.array([x for r in rows if key in r and backend in ("both", r["backend"])
+                  for x in r[key]], float)  # fmt: skip
+    return v[np.isfinite(v)]
+
+
 def summarise(rows: list[dict]) -> str:
     from scipy import stats
 
@@ -129,16 +159,18 @@ def summarise(rows: list[dict]) -> str:
              "kernel), per-axis values (4 per recording)",
              "| statistic | simulator | median (chi2) | 90 % (chi2) | max | share > chi2 99 % |",
              "|---|---|---|---|---|---|"]  # fmt: skip
-    for key, dof in (("curv0", 1), ("drift0", 1), ("shape0", 2), ("shape1", 2)):
+    for key, dof in (("curv0", 1), ("drift0", 1), ("shape0", 2), ("shape1", 2), ("timing0", 1)):
         for b in ("kernel", "foreign", "both"):
-            v = np.array([r[key] for r in rows if b in ("both", r["backend"])]).ravel()
+            v = _values(rows, key, b)
             if not v.size:
                 continue
             lines.append(f"| {key} | {b} | {np.median(v):.2f} ({stats.chi2.ppf(.5, dof):.2f}) | "
                          f"{np.quantile(v, .9):.1f} ({stats.chi2.ppf(.9, dof):.1f}) | "
                          f"{v.max():.1f} | {np.mean(v > stats.chi2.isf(.01, dof)):.3f} |")
     for name, key, dof in CALIBRATED:
-        v = np.array([r[key] for r in rows]).ravel()
+        v = _values(rows, key, "both")
+        if not v.size:
+            continue
         scale, nu = fit_null(v, dof)
         fit = dof * scale * stats.f.isf(np.array([0.5, 0.1, 0.01, 1e-4]), dof, nu)
         lines.append(f"LOWFREQ_NULL[{name!r}] = ({scale}, {nu}): its median / 90 % / 99 % / "

@@ -266,3 +266,19 @@ def test_a_name_beyond_physics_the_final_model_no_longer_wants_is_withdrawn(monk
     assert named == {("cubic_stiffness", "x2"), ("readout_scale", "disp:x2")}, rep["conclusion"]
     assert not rep["ambiguous"] and not rep["unexplained"], rep["conclusion"]
     assert any("readout_scale[acc:x2]" in n and "no longer wants it" in n for n in rep["notes"])
+
+
+@pytest.mark.parametrize(("backend", "seed"), [
+    ("kernel", 513), pytest.param("foreign", 514, marks=pytest.mark.slow)])  # fmt: skip
+def test_a_late_displacement_readout_is_an_unexplained_timing_at_its_readout(backend, seed):
+    """Out of catalogue: the x1 readout stamped tau late (the generator interpolates the
+    true motion: an independent path from the feature's tone-by-tone derivative).  It is
+    reported as an unexplained ``readout timing`` on "x1 readout", no name, with the
+    fitted offset within 25 % of the truth (SNR 40: a few per cent statistical)."""
+    o = _ooc("readout_timing", "x1", backend, seed)
+    rep = _report(backend, seed, ooc=[o])
+    assert not rep["effects"], rep["conclusion"]
+    got = [f for f in rep["features"] if f["feature"] == "readout timing"]
+    assert [f["channel"] for f in got] == ["x1 readout"], rep["features"]
+    assert "x1 readout" in rep["unexplained_at"]["channels"], rep["unexplained_at"]
+    assert got[0]["fitted"]["tau"]["value"] == pytest.approx(o.magnitude, rel=0.25)

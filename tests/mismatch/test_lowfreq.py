@@ -38,13 +38,13 @@ def test_the_calibrated_statistic_has_the_null_models_p_value(which, dof):
 @pytest.mark.slow  # ~7 s alone, 21 s on a loaded machine
 def test_a_clean_recordings_low_frequency_candidates_are_deflated_and_nothing_else():
     """On a clean flight-like recording (calibration seed 21000, kernel), with both nulls
-    in ``Settings.lowfreq`` the drift's and the curvature's p-values come from their
-    calibrated nulls, every other candidate's is unchanged, and no GLR changes (BIC gains
-    and the ambiguity band compare raw GLRs)."""
+    in ``Settings.lowfreq`` the drift's, the curvature's and the readout timing's p-values
+    come from their calibrated nulls, every other candidate's is unchanged, and no GLR
+    changes (BIC gains and the ambiguity band compare raw GLRs)."""
     sc = draw_scenario(21000, "kernel")
     rec, _ = realistic_recording(sc, (), (), 21000, "kernel")
     data, basis = prepare(data_from_recording(rec))
-    on, off = Settings(lowfreq=("ramp", "curvature")), Settings(lowfreq=())
+    on, off = Settings(lowfreq=("ramp", "curvature", "timing")), Settings(lowfreq=())
     state = fit_state(data, basis, [], [], False, on)
     ev_on = _tests(data, basis, state, on, set())[0]
     ev_off = _tests(data, basis, state, off, set())[0]
@@ -53,7 +53,9 @@ def test_a_clean_recordings_low_frequency_candidates_are_deflated_and_nothing_el
              for e in ev_on}  # fmt: skip
     assert kinds[("bias_drift", None)] == "ramp"
     assert kinds[("unexplained", "curvature")] == "curvature"
-    assert sum(bool(e.candidate.null) for e in ev_on) == 8  # 4 ramps, 4 curvatures
+    assert kinds[("unexplained", "readout timing")] == "timing"
+    timings = sum(bool(data.tones(a)) for a in range(4))  # one per excited axis
+    assert sum(bool(e.candidate.null) for e in ev_on) == 8 + timings  # 4 ramps, 4 curvatures
     for e, raw in zip(ev_on, ev_off):
         assert e.glr == pytest.approx(raw.glr)  # BIC gains compare raw GLRs
         if e.candidate.null:
@@ -65,10 +67,10 @@ def test_a_clean_recordings_low_frequency_candidates_are_deflated_and_nothing_el
             assert e.p_value == pytest.approx(raw.p_value)
 
 
-def test_only_the_curvature_null_is_on_by_default_and_unknown_nulls_are_refused():
+def test_the_curvature_and_timing_nulls_are_on_by_default_and_unknown_nulls_are_refused():
     """The ramp's null cost two true drifts on never-seen recordings (docs 9.11): off by
     default; the shape check's null is measured, not a setting."""
-    assert Settings().lowfreq == ("curvature",)
+    assert Settings().lowfreq == ("curvature", "timing")
     for bad in (("shape",), ("drift",)):
         with pytest.raises(ValueError):
             Settings(lowfreq=bad)

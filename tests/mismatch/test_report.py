@@ -93,3 +93,27 @@ def test_conclusion_wording():
     text = conclusion({**base, "mismatch_detected": True, "unexplained": True,
                        "locations_unexplained": loc})  # fmt: skip
     assert text.startswith("unexplained mismatch at f in [0.1, 0.2] Hz") and "y2" in text
+
+
+def test_a_near_alternative_the_selection_also_kept_is_no_rival():
+    """Two true effects of about one size (k110087: a cross-talk x1<-y1 at dBIC 312.8 and
+    a gain of x2 at 307.7 at the first step) are each other's near alternative there; once
+    both are selected (and kept by the backward pass) neither stands in for the other, so
+    neither is ambiguous -- while a near alternative left out stays a rival."""
+    from types import SimpleNamespace as NS
+
+    from tmopt.mismatch.diagnose import Locations
+    from tmopt.mismatch.report import _rivals
+
+    def ev(effect, channel, dbic):
+        cand = NS(effect=effect, channel=channel, key=f"{effect}[{channel}]",
+                  group="kinematic" if channel.startswith("disp") else "equation")
+        return NS(candidate=cand, dbic=dbic)
+
+    talk, gain = ev("sensing_cross_talk", "disp:x1<-y1", 312.8), ev("actuation_gain", "x2", 307.7)
+    other = ev("actuation_delay", "x2", 309.0)
+    dg = NS(selected=[(talk, [gain, other]), (gain, [])], features=[], misfits=[], weak=[],
+            beyond=[], saturated=[], locations_after=Locations())
+    assert [r["name"] for r in _rivals(talk, [gain, other], dg)] == ["actuation_delay"]
+    assert [r["name"] for r in _rivals(talk, [gain, other])] == ["actuation_gain",
+                                                                 "actuation_delay"]

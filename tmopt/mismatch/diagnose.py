@@ -77,11 +77,12 @@ class Settings:
     # re-test left-out candidates under the alternative (tmopt.mismatch.joint). Off by
     # default: on never-seen recordings its additions were wrong 5 times in 6 (docs 9.9)
     joint: bool = False
-    # the low-frequency shapes (keys of calibration.LOWFREQ_NULL: "ramp", "curvature")
-    # whose significance comes from their null calibrated on clean flight-like recordings,
-    # whose 1/f^2 acceleration noise inflates them (docs 9.11).  The ramp's is off by
-    # default: on never-seen recordings it cost two true drifts for two wrong names
-    lowfreq: tuple[str, ...] = ("curvature",)
+    # the shapes (keys of calibration.LOWFREQ_NULL: "ramp", "curvature", "timing") whose
+    # significance comes from their null calibrated on clean flight-like recordings: the
+    # 1/f^2 acceleration noise inflates the low-frequency ones (docs 9.11), a simulator's
+    # own discretisation the readout timing's (9.14).  The ramp's is off by default: on
+    # never-seen recordings it cost two true drifts for two wrong names
+    lowfreq: tuple[str, ...] = ("curvature", "timing")
 
     def __post_init__(self) -> None:
         if not (0 < self.alpha < 1 and 0 < self.locate_alpha < 1):
@@ -518,8 +519,8 @@ def _tests(data: Data, basis: np.ndarray, state: State, settings: Settings,
             out.append(Evaluation(cand, lam, dof, g.n, p))
     excludable = [True] * len(out)
     if settings.generic:
-        g = groups["equation"]
         for cand in generic.candidates(ctx):
+            g = groups[cand.group]  # force shapes; a readout timing is kinematic
             lam = g.glr(cand.columns)
             dof = len(cand.columns)
             p = min(1.0, cand.trials * float(stats.chi2.sf(_null_glr(cand, lam, settings), dof)))

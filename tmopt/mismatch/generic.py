@@ -44,7 +44,7 @@ import math
 import numpy as np
 
 from tmopt.mismatch.effects.base import TMS, Candidate, Context
-from tmopt.mismatch.fit import AXES, Column, axis_column
+from tmopt.mismatch.fit import AXES, Column, axis_column, kinematic_series
 
 __all__ = ["GENERIC", "candidates", "N_ONSETS", "NONLINEAR_KINDS"]
 
@@ -358,9 +358,50 @@ def _products(ctx: Context) -> list[Candidate]:
     return out
 
 
+#: A kinematic-group shape (:func:`_readout_timings`): the unnamed shapes were all forces,
+#: so a displacement readout stamped late (a sub-sample timing offset) went unseen or
+#: under a cross-talk's name (f/k90138-140, f/k110140: ``distinct`` 21-60 beside it).
+READOUT_TIMING = True
+TIMING = "readout timing"
+
+
+def _readout_timings(ctx: Context) -> list[Candidate]:
+    """A displacement readout stamped ``tau`` late, ``x_meas(t) = x(t - tau)``, per excited
+    axis: to first order in tau its exact-ZOH kinematic residual (:func:`kinematic_target`)
+    is ``-tau d/dt`` of the second difference of x, i.e. of the accelerometer term
+    ``g (a_n + a_(n-1))`` (:func:`kinematic_series`).  The regressor is that term's
+    excitation-tone part, differentiated tone by tone: the tones are set by the reference,
+    so it is its own instrument (the closed loop puts readout noise into ``acc``), and it
+    is in quadrature with a readout scale's (the same tone part undifferentiated)."""
+    d = ctx.data
+    rows = d.kin_index
+    tt = d.time[rows] - d.time[rows][0]
+    out = []
+    for a in range(4):
+        tones = d.tones(a)
+        if not tones:
+            continue
+        w = [2 * math.pi * f0 for f0 in tones]
+        basis = np.column_stack([f(wk * tt) for wk in w for f in (np.sin, np.cos)])
+        coef, *_ = np.linalg.lstsq(basis, kinematic_series(d, a), rcond=None)
+        deriv = sum(wk * (coef[2 * k] * np.cos(wk * tt) - coef[2 * k + 1] * np.sin(wk * tt))
+                    for k, wk in enumerate(w))  # fmt: skip
+        arr = np.zeros((4, rows.size))
+        arr[a] = -deriv
+        col = Column(f"{GENERIC}:{TIMING}[{AXES[a]}]", arr, None, (), a)
+        out.append(Candidate(GENERIC, f"{AXES[a]} readout", "kinematic", ["tau"], ["s"],
+                             [col], None, fixed={"feature": TIMING}, null="timing",
+                             text=f"unexplained: the displacement readout of {AXES[a]} "
+                                  f"({TMS[AXES[a]]}) is out of step with its accelerometer "
+                                  "(a timing offset: the residual is in quadrature with "
+                                  "the motion; no catalogue effect delays a readout)"))
+    return out
+
+
 def candidates(ctx: Context) -> list[Candidate]:
     """The generic features' best variants for this residual (see the module docstring)."""
     if ctx.eq_residual is None or ctx.eq_noise is None or ctx.data.n < 64:
         return []
     return (_steps(ctx) + _stiffness_steps(ctx) + _curvatures(ctx) + _lines(ctx)
-            + _nonlinear(ctx) + _products(ctx))  # fmt: skip
+            + _nonlinear(ctx) + _products(ctx)
+            + (_readout_timings(ctx) if READOUT_TIMING else []))  # fmt: skip

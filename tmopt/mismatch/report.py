@@ -85,9 +85,14 @@ def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
       channel needs what the effect's shape lacks (a drift that is not linear);
     * with ``dg``: weak evidence or a stronger effect's remainder (:attr:`Diagnosis.weak`,
       :func:`tmopt.mismatch.diagnose.weak_names`)."""
+    # a near alternative that the selection took too, and kept through its backward pass,
+    # explains what this one does not: both are in the model, neither stands in for the
+    # other (k110087: a cross-talk x1<-y1 and a gain of x2, both true, 5 apart at step 1)
+    taken = set() if dg is None else {s.candidate.key for s, _ in dg.selected}
     out = [{"name": a.candidate.effect, "channel": a.candidate.channel, "delta_bic": a.dbic,
             **_feature_of(a.candidate)}
-           for a in alts if a.candidate.effect != ev.candidate.effect]  # fmt: skip
+           for a in alts if a.candidate.effect != ev.candidate.effect
+           and a.candidate.key not in taken]  # fmt: skip
     if dg is None:
         return out
     out += [{"name": f.candidate.effect, "channel": f.candidate.channel, "delta_bic": f.dbic,
@@ -189,8 +194,11 @@ def _not_identifiable(dg: Diagnosis) -> list[dict]:
 def _feature_entry(dg: Diagnosis, ev) -> dict:
     """An unnamed feature: what (its words and searched parameters), where, how strong."""
     cand = ev.candidate
+    # its fitted size in the final model (a step's height, a readout's timing offset)
+    fitted = effect_parameters(dg.after, cand) if dg.after is not None else {}
     return {"feature": cand.fixed.get("feature"), "channel": cand.channel,
             "parameters": {k: v for k, v in cand.fixed.items() if k != "feature"},
+            "fitted": {k: {"value": float(v), "sigma": float(s)} for k, (v, s) in fitted.items()},
             "evidence": {"delta_bic": ev.dbic, "glr": ev.glr, "p_holm": ev.p_holm,
                          "trials": cand.trials},
             "description": cand.text}  # fmt: skip
