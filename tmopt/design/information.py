@@ -131,7 +131,8 @@ def rival_candidate(rival: Rival, data: Data, basis: np.ndarray,
                     cache: dict | None = None) -> Candidate:  # fmt: skip
     """The candidate of ``rival`` for ``data``: a catalogue effect's (as
     :func:`candidate_for`), or an unnamed feature whose regressor the planned motion (or
-    the time) fixes -- ``x|x|``, ``x^2``, ``f|f|``, ``x*y``, curvature -- built by the
+    the time) fixes -- ``x|x|``, ``x^2``, ``f|f|``, ``x*y``, curvature, a readout timing
+    (kinematic: the tone part of the accelerometer term, differentiated) -- built by the
     diagnosis' own code (:mod:`tmopt.mismatch.generic`).  A feature searched on the
     residual (a step at an onset, a line at a frequency, a relaxation) is the recording's
     event, not a column of a planned run: ValueError."""
@@ -143,7 +144,8 @@ def rival_candidate(rival: Rival, data: Data, basis: np.ndarray,
     if generic.GENERIC not in cache:
         ctx = Context(data, basis)  # these builders read the data only, not a residual
         cache[generic.GENERIC] = (generic._nonlinear(ctx) + generic._products(ctx)
-                                  + generic._curvatures(ctx))  # fmt: skip
+                                  + generic._curvatures(ctx)
+                                  + generic._readout_timings(ctx))  # fmt: skip
     for cand in cache[generic.GENERIC]:
         if cand.channel == rival.channel and cand.fixed.get("feature") == rival.feature:
             return cand
@@ -179,8 +181,9 @@ def regressor_data(data: Data, axes: tuple[int, ...] = (),
 
 
 def source_axis(channel: str) -> int:
-    """The axis whose motion drives a candidate: ``a<-b`` -> b, ``kind:a`` -> a."""
-    name = channel.rpartition(":")[2].rpartition("<-")[2]
+    """The axis whose motion drives a candidate: ``a<-b`` -> b, ``kind:a`` -> a,
+    ``a readout`` -> a."""
+    name = channel.split(" ")[0].rpartition(":")[2].rpartition("<-")[2]
     return AXES.index(name) if name in AXES else -1
 
 
