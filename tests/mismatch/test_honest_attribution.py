@@ -282,3 +282,33 @@ def test_a_late_displacement_readout_is_an_unexplained_timing_at_its_readout(bac
     assert [f["channel"] for f in got] == ["x1 readout"], rep["features"]
     assert "x1 readout" in rep["unexplained_at"]["channels"], rep["unexplained_at"]
     assert got[0]["fitted"]["tau"]["value"] == pytest.approx(o.magnitude, rel=0.25)
+
+
+def test_a_refusal_after_names_beyond_physics_keeps_their_notes(monkeypatch):
+    """Nothing said is lost: when a recording is refused for a third explanation beyond
+    physics, the two taken out before it are still named in the notes (every selected
+    effect is made to look implausible here, on a recording with a large x2 gain)."""
+    import copy
+
+    import tmopt.mismatch.diagnose as dg
+    from tmopt.mismatch.fit import data_from_result
+    from tmopt.physics import SimulationConfig, simulate
+
+    from .test_diagnose import REF1, REF2
+    from .test_effects import add_force
+
+    d = copy.deepcopy(data_from_result(simulate(REF1, REF2, SimulationConfig(duration=600.0),
+                                                seed=31)))  # fmt: skip
+    add_force(d, 1, 4e-2 * d.force[1])
+
+    def always(state, selected):
+        if not selected:
+            return None
+        cand = selected[0][0].candidate
+        return cand, f"cannot diagnose: {cand.key} made implausible by the test"
+
+    monkeypatch.setattr(dg, "_implausible", always)
+    rep = build_report(dg.diagnose(d))
+    assert rep["status"] == "cannot_diagnose", rep.get("conclusion")
+    said = [n for n in rep["notes"] if n.startswith("not named: ")]
+    assert len(said) == dg.MAX_IMPLAUSIBLE and all("made implausible" in n for n in said)

@@ -1114,7 +1114,9 @@ def _diagnose_prepared(data: Data, basis: np.ndarray, settings: Settings,
         bad = _implausible(state, selected)
         if bad is None:
             break
-        if len(beyond) >= MAX_IMPLAUSIBLE:
+        if len(beyond) >= MAX_IMPLAUSIBLE:  # the ones taken out before are said too
+            data.notes += [b["reason"].replace("cannot diagnose: ", "not named: ")
+                           for b in beyond]  # fmt: skip
             return _refused(data, settings, verdict, bad[1])
         beyond.append({"key": bad[0].key, "channel": bad[0].channel,
                        "group": bad[0].group, "reason": bad[1]})  # fmt: skip
