@@ -77,13 +77,12 @@ def _timing_stats(data, basis) -> list[float]:
     axis without excitation tones) in the kinematic group against the nominal fit: what
     the selection's first step tests."""
     from tmopt.mismatch import generic
-    from tmopt.mismatch.diagnose import Settings, _IVGroup, fit_state
+    from tmopt.mismatch.diagnose import Settings, fit_state, residual_groups
     from tmopt.mismatch.effects.base import Context
     from tmopt.mismatch.fit import AXES
 
     state = fit_state(data, basis, [], [], False, Settings())
-    group = _IVGroup(state.kinematic_target(data), state.kin_cols, state.kin_noise.whiten,
-                     state.kin_fit.residual, data.fs, data.kin_layout)  # fmt: skip
+    group = residual_groups(data, state)["kinematic"]
     ctx = Context(data, basis, state.eq_fit.residual, state.eq_noise)
     out = [math.nan] * len(AXES)
     for cand in generic._readout_timings(ctx):

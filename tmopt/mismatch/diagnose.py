@@ -492,17 +492,23 @@ def evaluate(data: Data, basis: np.ndarray, state: State, settings: Settings,
     return _holm_adjusted(_tests(data, basis, state, settings, exclude)[0])
 
 
-def _tests(data: Data, basis: np.ndarray, state: State, settings: Settings,
-           exclude: set[str]) -> tuple[list[Evaluation], list[bool]]:  # fmt: skip
-    """:func:`evaluate` before Holm's adjustment, and per evaluation whether ``exclude``
-    applies to it (catalogue candidates; the generic features are always tested)."""
-    ctx = Context(data, basis, state.eq_fit.residual, state.eq_noise)
-    groups = {
+def residual_groups(data: Data, state: State) -> dict:
+    """The two residual groups of ``state`` as candidates are tested against them
+    (``{"equation": _Group, "kinematic": _IVGroup}``; their ``glr(columns)``)."""
+    return {
         "equation": _Group(None, state.eq_cols, state.eq_fit, state.eq_noise.whiten),
         "kinematic": _IVGroup(state.kinematic_target(data), state.kin_cols,
                               state.kin_noise.whiten, state.kin_fit.residual, data.fs,
                               data.kin_layout),
     }
+
+
+def _tests(data: Data, basis: np.ndarray, state: State, settings: Settings,
+           exclude: set[str]) -> tuple[list[Evaluation], list[bool]]:  # fmt: skip
+    """:func:`evaluate` before Holm's adjustment, and per evaluation whether ``exclude``
+    applies to it (catalogue candidates; the generic features are always tested)."""
+    ctx = Context(data, basis, state.eq_fit.residual, state.eq_noise)
+    groups = residual_groups(data, state)
     out = []
     for effect in CATALOGUE:
         for cand in effect.candidates(ctx):
@@ -1115,8 +1121,7 @@ def _diagnose_prepared(data: Data, basis: np.ndarray, settings: Settings,
         if bad is None:
             break
         if len(beyond) >= MAX_IMPLAUSIBLE:  # the ones taken out before are said too
-            data.notes += [b["reason"].replace("cannot diagnose: ", "not named: ")
-                           for b in beyond]  # fmt: skip
+            data.notes += [_not_named(b["reason"]) for b in beyond]
             return _refused(data, settings, verdict, bad[1])
         beyond.append({"key": bad[0].key, "channel": bad[0].channel,
                        "group": bad[0].group, "reason": bad[1]})  # fmt: skip
@@ -1161,8 +1166,13 @@ def _still_wanted(data: Data, beyond: list[dict], selected: list, state: State,
                               "not physics left out")  # fmt: skip
             continue
         kept.append(b)
-        data.notes.append(b["reason"].replace("cannot diagnose: ", "not named: "))
+        data.notes.append(_not_named(b["reason"]))
     return kept
+
+
+def _not_named(reason: str) -> str:
+    """A refusal's reason (:func:`_implausible`) said of an explanation taken out."""
+    return reason.replace("cannot diagnose: ", "not named: ")
 
 
 def _select(data: Data, basis: np.ndarray, before: State, settings: Settings,

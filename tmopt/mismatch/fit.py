@@ -68,6 +68,7 @@ __all__ = [
     "solve",
     "solve_iv",
     "tone_instrument",
+    "tone_part",
     "excitation_tones",
     "output_error",
     "kinematic_coefficients",
@@ -556,12 +557,25 @@ def tone_instrument(series: np.ndarray, time: np.ndarray, tones: list[float]) ->
     valid instrument against closed-loop bias (the reference as instrumental variable);
     without tones it is zero (the axis is not excited).
     """
+    return tone_part(series, time, tones)
+
+
+def tone_part(series: np.ndarray, time: np.ndarray, tones: list[float],
+              derivative: bool = False) -> np.ndarray:  # fmt: skip
+    """Least-squares fit of ``series`` (N,) by a sine and a cosine per tone [Hz] on
+    ``time`` (N,) [s]: the fitted part, or with ``derivative`` its time derivative (each
+    tone's pair differentiated exactly); zeros without tones."""
     if not tones:
         return np.zeros_like(series)
     t = time - time[0]
-    basis = np.column_stack([f(2 * math.pi * f0 * t) for f0 in tones for f in (np.sin, np.cos)])
+    w = [2 * math.pi * f0 for f0 in tones]
+    basis = np.column_stack([f(wk * t) for wk in w for f in (np.sin, np.cos)])
     coef, *_ = np.linalg.lstsq(basis, series, rcond=None)
-    return basis @ coef
+    if not derivative:
+        return basis @ coef
+    # d/dt (s sin wt + c cos wt) = w (s cos wt - c sin wt)
+    slope = np.column_stack([f(wk * t) for wk in w for f in (np.cos, np.sin)])
+    return slope @ (coef * np.repeat(w, 2) * np.tile([1.0, -1.0], len(w)))
 
 
 @dataclass

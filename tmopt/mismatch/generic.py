@@ -44,7 +44,7 @@ import math
 import numpy as np
 
 from tmopt.mismatch.effects.base import TMS, Candidate, Context
-from tmopt.mismatch.fit import AXES, Column, axis_column, kinematic_series
+from tmopt.mismatch.fit import AXES, Column, axis_column, kinematic_series, tone_part
 
 __all__ = ["GENERIC", "candidates", "N_ONSETS", "NONLINEAR_KINDS"]
 
@@ -375,19 +375,13 @@ def _readout_timings(ctx: Context) -> list[Candidate]:
     is in quadrature with a readout scale's (the same tone part undifferentiated)."""
     d = ctx.data
     rows = d.kin_index
-    tt = d.time[rows] - d.time[rows][0]
     out = []
     for a in range(4):
         tones = d.tones(a)
         if not tones:
             continue
-        w = [2 * math.pi * f0 for f0 in tones]
-        basis = np.column_stack([f(wk * tt) for wk in w for f in (np.sin, np.cos)])
-        coef, *_ = np.linalg.lstsq(basis, kinematic_series(d, a), rcond=None)
-        deriv = sum(wk * (coef[2 * k] * np.cos(wk * tt) - coef[2 * k + 1] * np.sin(wk * tt))
-                    for k, wk in enumerate(w))  # fmt: skip
         arr = np.zeros((4, rows.size))
-        arr[a] = -deriv
+        arr[a] = -tone_part(kinematic_series(d, a), d.time[rows], tones, derivative=True)
         col = Column(f"{GENERIC}:{TIMING}[{AXES[a]}]", arr, None, (), a)
         out.append(Candidate(GENERIC, f"{AXES[a]} readout", "kinematic", ["tau"], ["s"],
                              [col], None, fixed={"feature": TIMING}, null="timing",
