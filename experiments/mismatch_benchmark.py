@@ -240,6 +240,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--only", default=None, metavar="SEEDS",
                    help="with --realistic: run only these recordings, comma-separated SEED "
                         "(both simulators) or BACKEND:SEED, e.g. 40036,foreign:40101")
+    p.add_argument("--scaler-version", type=int, default=None, choices=(1, 2),
+                   help="with --realistic: the SNR scaler's version (default: the current, 2; "
+                        "1 remakes the sets read before stop 39; a run keeps its own)")
     p.add_argument("--seed-base", type=int, default=40000,
                    help="first seed of the realistic set (default 40000: fresh seeds)")
     args = p.parse_args(argv)

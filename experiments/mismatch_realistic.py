@@ -58,18 +58,21 @@ def _channel_and_options(name: str, rng: np.random.Generator) -> tuple[str, dict
     return ch, opt
 
 
-def cases(backend: str, seed_base: int, quick: bool) -> list[dict]:
+def cases(backend: str, seed_base: int, quick: bool, scaler: int | None = None) -> list[dict]:
     """The realistic set for one backend (150 recordings: 32 clean, 52 single catalogue
-    effects, 24 pairs, 36 out-of-catalogue, 6 glitch storms; ``quick``: 5)."""
+    effects, 24 pairs, 36 out-of-catalogue, 6 glitch storms; ``quick``: 5); ``scaler``: the
+    SNR scaler's version (:data:`tmopt.mismatch.realistic.SCALER_VERSION` by default)."""
     from tmopt.mismatch.effects import EFFECT_NAMES
-    from tmopt.mismatch.realistic import OUT_OF_CATALOGUE
+    from tmopt.mismatch.realistic import OUT_OF_CATALOGUE, SCALER_VERSION
 
     out: list[dict] = []
     seed = seed_base
+    scaler = SCALER_VERSION if scaler is None else scaler
 
     def add(category: str, items: list[dict]) -> None:
         nonlocal seed
-        out.append({"backend": backend, "category": category, "seed": seed, "items": items})
+        out.append({"backend": backend, "category": category, "seed": seed, "items": items,
+                    "scaler": scaler})  # fmt: skip
         seed += 1
 
     if quick:
@@ -113,7 +116,7 @@ def build(case: dict):
     backend, seed = case["backend"], case["seed"]
     sc = draw_scenario(seed, backend)
     rng = np.random.default_rng(np.random.SeedSequence([seed, 0xBE]))
-    clean = _clean_cache(sc, seed, backend) if case["items"] else None
+    clean = _clean_cache(sc, seed, backend, case.get("scaler", 1)) if case["items"] else None
     effects, ooc, snrs = [], [], []
     for item in case["items"]:
         if item["kind"] == "effect":
@@ -303,7 +306,7 @@ def run_case(case: dict) -> dict:
         rec, truth = realistic_recording(sc, effects, ooc, case["seed"], case["backend"])
     except Exception as exc:  # a diverged loop is reported, not hidden
         return {**ids, "error": f"generation: {type(exc).__name__}: {exc}"}
-    truth["snr"] = snrs
+    truth["snr"], truth["scaler_version"] = snrs, case.get("scaler", 1)
     per_effect, per_ooc = limits(sc, effects, ooc, case["seed"], case["backend"])
     truth["snr_nominal"] = [d["visible"] for d in per_effect]
     truth["ooc_distinct"], truth["effect_distinct"] = per_ooc, per_effect
@@ -416,17 +419,17 @@ def _rescored(row: dict, reports: Path, distinct: dict | None = None) -> dict:
     return {**row, **score(json.loads(rep.read_text()), truth)}
 
 
-def distinct_job(job: tuple[str, int, int]) -> dict:
-    """:func:`limits` of one benchmark case ``(backend, seed base, seed)``."""
-    backend, base, seed = job
-    case = next(c for c in cases(backend, base, False) if c["seed"] == seed)
+def distinct_job(job: tuple[str, int, int, int]) -> dict:
+    """:func:`limits` of one benchmark case ``(backend, seed base, seed, scaler version)``."""
+    backend, base, seed, scaler = job
+    case = next(c for c in cases(backend, base, False, scaler) if c["seed"] == seed)
     sc, effects, ooc, _ = build(case)
     per_effect, per_ooc = limits(sc, effects, ooc, seed, backend)
     return {"backend": backend, "seed": seed, "ooc_distinct": per_ooc,
             "effect_distinct": per_effect}  # fmt: skip
 
 
-def backfill_distinct(out: Path, base: int, jobs: int) -> dict:
+def backfill_distinct(out: Path, base: int, jobs: int, scaler: int) -> dict:
     """``--distinct``: :func:`limits` of every row of a run made before the scorer had
     them that holds an out-of-catalogue item or an identifiable effect, streamed to
     ``realistic_ooc_distinct.jsonl`` (resumable); returns them by ``(backend, seed)``."""
@@ -434,7 +437,7 @@ def backfill_distinct(out: Path, base: int, jobs: int) -> dict:
     have = [json.loads(x) for x in path.read_text().splitlines() if x] if path.exists() else []
     done = {(r["backend"], r["seed"]) for r in have if "effect_distinct" in r}
     rows = [json.loads(x) for x in (out / "realistic_rows.jsonl").read_text().splitlines() if x]
-    todo = [(r["backend"], base, r["seed"]) for r in rows
+    todo = [(r["backend"], base, r["seed"], scaler) for r in rows
             if (r.get("n_ooc") or r.get("n_identifiable"))
             and (r["backend"], r["seed"]) not in done]  # fmt: skip
     with open(path, "a") as fh, mp.get_context("spawn").Pool(max(1, min(jobs, len(todo)))) as pool:
@@ -563,11 +566,32 @@ def only(todo: list[dict], spec: str) -> list[dict]:
             if (c["backend"], c["seed"]) in keys or (None, c["seed"]) in keys]  # fmt: skip
 
 
+def _run_scaler(out: Path, asked: int | None) -> int:
+    """The SNR scaler version of the run in ``out``: kept in ``realistic_meta.json`` so a
+    resumed or re-scored run regenerates its own recordings.  A run made before the file
+    existed used version 1; asking for another version there is an error."""
+    from tmopt.mismatch.realistic import SCALER_VERSION
+
+    meta = out / "realistic_meta.json"
+    if meta.exists():
+        have = json.loads(meta.read_text())["scaler_version"]
+    elif (out / "realistic_rows.jsonl").exists():
+        have = 1
+    else:
+        have = SCALER_VERSION if asked is None else asked
+        meta.write_text(json.dumps({"scaler_version": have}))
+    if asked is not None and asked != have:
+        raise SystemExit(f"error: --scaler-version {asked}, but the run in {out} was made with "
+                         f"version {have}; use another --out")
+    return have
+
+
 def main_realistic(args) -> int:
     out = Path(args.out)
     (out / "realistic_reports").mkdir(parents=True, exist_ok=True)
     backends = ("kernel", "foreign") if args.backend == "both" else (args.backend,)
-    todo = [c for b in backends for c in cases(b, args.seed_base, args.quick)]
+    scaler = _run_scaler(out, getattr(args, "scaler_version", None))
+    todo = [c for b in backends for c in cases(b, args.seed_base, args.quick, scaler)]
     # a fixed shuffle: a run stopped early has scored every category and both simulators
     todo = [todo[i] for i in np.random.default_rng(0).permutation(len(todo))]
     if getattr(args, "only", None):
@@ -585,7 +609,7 @@ def main_realistic(args) -> int:
         todo = []
     distinct = None
     if getattr(args, "distinct", False):  # the physical limit, for a run made before it
-        distinct = backfill_distinct(out, args.seed_base, args.jobs)
+        distinct = backfill_distinct(out, args.seed_base, args.jobs, scaler)
     if getattr(args, "rescore", False) or distinct is not None:
         # today's scorer on the kept reports and truths
         rows = [_rescored(r, out / "realistic_reports", distinct) for r in rows]

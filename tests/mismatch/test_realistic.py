@@ -15,17 +15,20 @@ from tmopt.mismatch import foreign
 from tmopt.mismatch.effects import Injection
 from tmopt.mismatch.effects.glitch import glitch_interval_average
 from tmopt.mismatch.fit import data_from_recording, kinematic_coefficients, kinematic_target
+from tmopt.mismatch.generate import _psd_on_grid, matched_snr, residual_families, whitened_power
 from tmopt.mismatch.realistic import (
     ACC_BUDGET,
     DISP_BUDGET,
     OUT_OF_CATALOGUE,
     Background,
+    _clean_cache,
     draw_glitches,
     draw_scenario,
     make_ooc,
     realistic_recording,
+    scale_to_snr,
 )
-from tmopt.physics.recording import AXES
+from tmopt.physics.recording import AXES, Recording
 
 QUIET = Background({k: 1e-9 for k in ("m1", "m2", "acc", "ele", "fb")}, 1e-9, 1e9, 1e-9, 1.0)
 
@@ -171,3 +174,39 @@ def test_a_tiny_actuation_delay_is_a_tiny_change_on_the_foreign_held_acceleromet
                                   "foreign")  # fmt: skip
     step = np.std(np.diff(base["force_x1"]))
     assert np.max(np.abs(late["acc_x1"] - base["acc_x1"])) < 1e-3 * step
+
+
+def _applied_stamp(rec: Recording) -> Recording:
+    """A 'previous'-stamped recording re-stamped by hand: force[n + 1] beside sample n, the
+    last sample dropped (the truth's convention, not the tool's detection)."""
+    ch = {k: (v[:-1] if not k.startswith("force_") else v[1:]) for k, v in rec.channels.items()}
+    return Recording(ch, dict(rec.attrs))
+
+
+def test_the_snr_scaler_pairs_the_forces_as_the_tool_does():
+    """Scaler version 2 (docs/mismatch.md 10): a foreign recording stamped 'previous' is
+    measured with its force channels aligned by the tool's criterion, so an effect scaled
+    to SNR 40 has SNR 40 in families re-stamped by hand from the truth; version 1 measured
+    it against the misaligned force's step-to-step change and scaled it ~50x too loud."""
+    seed = 17
+    sc = replace(short(seed, "foreign"), gaps=(), force_stamp="previous")
+    v1, v2 = (_clean_cache(sc, seed, "foreign", v) for v in (1, 2))
+    assert v2["force_lag"] == 1 and v1["force_lag"] == 0
+    assert _clean_cache(replace(sc, force_stamp="applied"), seed, "foreign")["force_lag"] == 0
+    assert _clean_cache(short(seed), seed, "kernel")["force_lag"] == 0
+    step = make_ooc("force_step", 1e-12, "x1", seed, sc)
+    step2, rho2 = scale_to_snr(sc, step, 40.0, seed, "foreign", v2)
+    step1, _ = scale_to_snr(sc, step, 40.0, seed, "foreign", v1)
+    assert abs(rho2 / 40 - 1) < 0.15
+    assert abs(step1.magnitude) > 10 * abs(step2.magnitude)
+
+    def eq(seed_, ooc=()):
+        rec = realistic_recording(sc, (), ooc, seed_, "foreign", gaps=False)[0]
+        return residual_families(_applied_stamp(rec))["eq"]
+
+    a, b = eq(seed), eq(seed + 7919)
+    psd = _psd_on_grid((a - b) / math.sqrt(2), sc.sample_rate)
+    by_hand = matched_snr(whitened_power(eq(seed, [step2]) - a, psd, sc.sample_rate))
+    assert by_hand == pytest.approx(rho2, rel=0.05)
+    with pytest.raises(ValueError, match="version must be one of"):
+        _clean_cache(sc, seed, "foreign", 3)

@@ -172,3 +172,20 @@ def test_distinct_refuses_to_run_a_benchmark_in_one_line(bench, capsys):
     assert mb.main(["--realistic", "--distinct"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--distinct" in err[0] and "--summarise" in err[0]
+
+
+def test_a_run_keeps_its_scaler_version_and_refuses_another(bench, tmp_path):
+    """A run's recordings depend on the SNR scaler's version, so a run records it and a
+    resume or re-score regenerates with it; a run from before the record is version 1."""
+    _, mr = bench
+    new, old = tmp_path / "new", tmp_path / "old"
+    new.mkdir()
+    assert mr._run_scaler(new, None) == 2
+    assert json.loads((new / "realistic_meta.json").read_text()) == {"scaler_version": 2}
+    assert mr._run_scaler(new, 2) == 2
+    with pytest.raises(SystemExit, match="--scaler-version 1, but the run in .* version 2"):
+        mr._run_scaler(new, 1)
+    old.mkdir()
+    (old / "realistic_rows.jsonl").write_text("")
+    assert mr._run_scaler(old, None) == 1
+    assert all(c["scaler"] == 1 for c in mr.cases("foreign", 40000, True, 1))

@@ -250,18 +250,25 @@ def calibrated_injection(name: str, level: str, sign: float = 1.0) -> Injection:
 # largest over families.  Which statistic: each effect's ``noise_like``.
 
 
-def residual_families(rec: Recording) -> dict[str, np.ndarray]:
-    """The residual families above: ``eq`` (2, N) and ``kin_<axis>`` (1, N - 2).
+def residual_families(rec: Recording, force_lag: int = 0) -> dict[str, np.ndarray]:
+    """The residual families above: ``eq`` (2, N - |force_lag|) and ``kin_<axis>``
+    (1, N - 2).
 
     ``eq``: the two orthonormal f_B-free combinations (K of Eq. 11 and the one orthogonal
     to it), fitted *jointly* with the nominal model of Eqs. 10-15 -- one stiffness per
     axis shared by both, one intercept (f_D combination) each.  Their noises (N_acc +
-    N_ele, iid over axes) are then independent with equal variance.
+    N_ele, iid over axes) are then independent with equal variance.  ``force_lag``: the
+    force sample ``n + force_lag`` is paired with sample n (a recorder's timestamp
+    convention, :func:`tmopt.mismatch.fit.force_lag`), ends cut.
     """
     geo = rec.geometry()
     x = np.array([rec[a] for a in AXES])
     acc = np.array([rec[f"acc_{a}"] for a in AXES])
-    d = acc - np.array([rec[f"force_{a}"] for a in AXES])
+    force = np.array([rec[f"force_{a}"] for a in AXES])
+    if force_lag:
+        keep = np.arange(max(0, -force_lag), x.shape[1] - max(0, force_lag))
+        x, acc, force = x[:, keep], acc[:, keep], force[:, keep + force_lag]
+    d = acc - force
     wa, wb = geo.w_sa[:2, :2], geo.w_sb[:2, :2]
     proj = np.array([wa[0], wb[0], wa[1], wb[1]])  # f_B^s seen by each axis (Eqs. 6-7)
     k = geo.coefficients() / np.linalg.norm(geo.coefficients())
@@ -277,6 +284,8 @@ def residual_families(rec: Recording) -> dict[str, np.ndarray]:
     y = (basis @ d).ravel()
     fam = {"eq": (y - cols @ np.linalg.lstsq(cols, y, rcond=None)[0]).reshape(2, n)}
     h2 = rec.dt**2
+    x = np.array([rec[a] for a in AXES])  # the kinematic check uses no force: all samples
+    acc = np.array([rec[f"acc_{a}"] for a in AXES])
     for a, name in enumerate(AXES):
         fam[f"kin_{name}"] = (x[a, 2:] - 2 * x[a, 1:-1] + x[a, :-2]
                               - 0.5 * h2 * (acc[a, 1:-1] + acc[a, :-2]))[None]  # fmt: skip
