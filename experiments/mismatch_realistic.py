@@ -702,27 +702,43 @@ def streamed_rows(path: Path, todo: list[dict], run, jobs: int = 1,
     return [json.loads(x) for x in path.open()]
 
 
-def calibration_job(job: tuple[str, int]) -> dict:
-    """One clean realistic recording: the first greedy step's smallest Holm p, the
-    locate step's smallest adjusted p, and what the tool concludes with its defaults."""
-    from tmopt.mismatch.diagnose import Settings, diagnose
+def calibration_job(job: tuple[str, int] | dict) -> dict:
+    """One clean realistic recording under the tool's defaults: the first greedy step's
+    smallest Holm p, the locate step's smallest adjusted p, the benchmark's false alarm
+    (the report says a mismatch) and what raised it -- each name and each unexplained
+    feature with its statistic (GLR, Holm p, trials) -- for calibrating a family's null."""
+    from tmopt.mismatch.diagnose import diagnose
     from tmopt.mismatch.fit import data_from_recording
     from tmopt.mismatch.realistic import draw_scenario, realistic_recording
+    from tmopt.mismatch.report import build_report
 
-    backend, seed = job
+    backend, seed = (job["backend"], job["seed"]) if isinstance(job, dict) else job
     sc = draw_scenario(seed, backend)
     rec, _ = realistic_recording(sc, (), (), seed, backend)
-    dg = diagnose(data_from_recording(rec), Settings(max_effects=1))
+    dg = diagnose(data_from_recording(rec))
     if dg.refused:
         return {"backend": backend, "seed": seed, "refused": dg.refused, "min_p_holm": math.nan,
-                "min_p_key": "", "locate_p": math.nan, "detected_default": None}  # fmt: skip
+                "min_p_key": "", "locate_p": math.nan, "detected_default": None,
+                "false_alarm": None, "raised": []}  # fmt: skip
+    rep = build_report(dg)
     best = min(dg.steps[0], key=lambda e: e.p_holm)
+    raised = [{"what": e["name"], "channel": e["channel"], **_stat(e["evidence"])}
+              for e in rep["effects"]]
+    raised += [{"what": f["feature"], "channel": f["channel"], **_stat(f.get("evidence", {}))}
+               for f in rep.get("features", [])]  # fmt: skip
     return {"backend": backend, "seed": seed, "refused": "", "min_p_holm": best.p_holm,
             "min_p_key": best.candidate.key, "locate_p": dg.locations.min_p,
-            "detected_default": dg.mismatch_detected, "duration": sc.duration,
-            "fs": sc.sample_rate, "gaps": len(sc.gaps)}  # fmt: skip
+            "detected_default": dg.mismatch_detected,
+            "false_alarm": bool(rep.get("mismatch_detected")), "raised": raised,
+            "unexplained_channels": (rep.get("unexplained_at") or {}).get("channels", []),
+            "duration": sc.duration, "fs": sc.sample_rate, "gaps": len(sc.gaps),
+            "force_stamp": sc.force_stamp, "acc_convention": sc.acc_convention}  # fmt: skip
 
 
-def calibration_jobs(n: int) -> list[tuple[str, int]]:
-    return [(b, CALIBRATION_SEED_BASE + i) for i in range(n) for b in ("kernel", "foreign")]
+def _stat(ev: dict) -> dict:
+    return {k: ev.get(k) for k in ("glr", "p_holm", "delta_bic", "trials")}
+
+
+def calibration_jobs(n: int, seed_base: int = CALIBRATION_SEED_BASE) -> list[tuple[str, int]]:
+    return [(b, seed_base + i) for i in range(n) for b in ("kernel", "foreign")]
 
