@@ -99,7 +99,9 @@ def test_a_near_alternative_the_selection_also_kept_is_no_rival():
     """Two true effects of about one size (k110087: a cross-talk x1<-y1 at dBIC 312.8 and
     a gain of x2 at 307.7 at the first step) are each other's near alternative there; once
     both are selected (and kept by the backward pass) neither stands in for the other, so
-    neither is ambiguous -- while a near alternative left out stays a rival."""
+    neither is ambiguous -- while a near alternative left out stays a rival.  (k110087's
+    gain was of x2, which since stop 39 also fails :func:`could_stand_in`; a gain of x1
+    here, so that the selection alone sets them apart.)"""
     from types import SimpleNamespace as NS
 
     from tmopt.mismatch.diagnose import Locations
@@ -110,10 +112,44 @@ def test_a_near_alternative_the_selection_also_kept_is_no_rival():
                   group="kinematic" if channel.startswith("disp") else "equation")
         return NS(candidate=cand, dbic=dbic)
 
-    talk, gain = ev("sensing_cross_talk", "disp:x1<-y1", 312.8), ev("actuation_gain", "x2", 307.7)
-    other = ev("actuation_delay", "x2", 309.0)
+    talk, gain = ev("sensing_cross_talk", "disp:x1<-y1", 312.8), ev("actuation_gain", "x1", 307.7)
+    other = ev("actuation_delay", "x1", 309.0)  # shares x1: it could stand in
     dg = NS(selected=[(talk, [gain, other]), (gain, [])], features=[], misfits=[], weak=[],
             beyond=[], saturated=[], locations_after=Locations())
     assert [r["name"] for r in _rivals(talk, [gain, other], dg)] == ["actuation_delay"]
     assert [r["name"] for r in _rivals(talk, [gain, other])] == ["actuation_gain",
                                                                  "actuation_delay"]
+
+
+def test_an_alternative_of_another_group_on_other_axes_is_no_rival():
+    """f130102 (a readout scale of x2 and a cubic of x1, both true): at the first step the
+    scale (kinematic group, dBIC 62.2) had the cubic (60.5) and two unnamed forces of x1
+    (57.6) within AMBIGUOUS_DBIC.  The cubic was selected too; the forces were the cubic's
+    rivals, not the scale's -- a force on x1 cannot explain x2's readout residual -- so the
+    scale is named.  Within the equation group (its combinations mix every axis) and on
+    a shared axis an alternative stays a rival."""
+    from types import SimpleNamespace as NS
+
+    from tmopt.mismatch.diagnose import Locations
+    from tmopt.mismatch.report import _rivals, could_stand_in
+
+    def ev(effect, channel, dbic, group):
+        cand = NS(effect=effect, channel=channel, key=f"{effect}[{channel}]", group=group,
+                  fixed={})  # fmt: skip
+        return NS(candidate=cand, dbic=dbic)
+
+    scale = ev("readout_scale", "disp:x2", 62.2, "kinematic")
+    cubic = ev("cubic_stiffness", "x1", 60.5, "equation")
+    force = ev("unexplained", "x1", 57.6, "equation")
+    dg = NS(selected=[(scale, [cubic, force]), (cubic, [force])], features=[], misfits=[],
+            weak=[], beyond=[], saturated=[], locations_after=Locations())  # fmt: skip
+    assert _rivals(scale, [cubic, force], dg) == []
+    assert [r["name"] for r in _rivals(cubic, [force], dg)] == ["unexplained"]
+    gain_x2 = ev("actuation_gain", "x2", 60.0, "equation")  # other group, shared axis
+    gain_x1 = ev("actuation_gain", "x1", 60.0, "equation")  # same group, other axis
+    talk = ev("sensing_cross_talk", "disp:x2<-x1", 60.0, "kinematic")  # shares x1
+    assert could_stand_in(gain_x2.candidate, scale.candidate)
+    cubic_x2 = ev("cubic_stiffness", "x2", 60.5, "equation").candidate
+    assert could_stand_in(gain_x1.candidate, cubic_x2)
+    assert could_stand_in(talk.candidate, cubic.candidate)
+    assert not could_stand_in(force.candidate, scale.candidate)

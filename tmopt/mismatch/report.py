@@ -18,6 +18,7 @@ from tmopt.mismatch.diagnose import (
     State,
     effect_parameters,
     event_pieces,
+    shares_axis,
     stiffness,
     summary,
 )
@@ -69,10 +70,24 @@ def _axes(channel: str) -> set[str]:
 COUPLING_RIVALS = True
 
 
+def could_stand_in(alt, cand) -> bool:
+    """Can candidate ``alt`` explain what ``cand`` does?  Not when the two are fitted in
+    different residual groups (:attr:`Candidate.group`) and share no axis: a displacement
+    readout's scale of x2 lives in x2's readout-vs-accelerometer residual, a force on x1
+    in the equation residual, and neither can touch the other's data.  At a greedy step
+    they are compared only by size, so being within AMBIGUOUS_DBIC there says nothing
+    about which is true (f130102: a true readout scale of x2 left ambiguous beside
+    unnamed forces on x1, the rivals of the true cubic of x1).  Within one group the
+    equation residual's f_B-free combinations mix every axis, so there any alternative
+    may stand in."""
+    return alt.group == cand.group or shares_axis(alt.channel, cand.channel)
+
+
 def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
     """Why a selected effect's name is not a confident one (empty: it is):
 
-    * near alternatives (within AMBIGUOUS_DBIC) of another name, catalogue or unnamed;
+    * near alternatives (within AMBIGUOUS_DBIC) of another name, catalogue or unnamed,
+      that could stand in for it (:func:`could_stand_in`);
     * with ``dg``: an unnamed feature selected on the same channel (a linear drift beside
       a curvature, a stiffness drift beside a stiffness step);
     * with ``dg``: excess the final model still leaves located on one of the effect's
@@ -92,7 +107,8 @@ def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
     out = [{"name": a.candidate.effect, "channel": a.candidate.channel, "delta_bic": a.dbic,
             **_feature_of(a.candidate)}
            for a in alts if a.candidate.effect != ev.candidate.effect
-           and a.candidate.key not in taken]  # fmt: skip
+           and a.candidate.key not in taken
+           and could_stand_in(a.candidate, ev.candidate)]  # fmt: skip
     if dg is None:
         return out
     out += [{"name": f.candidate.effect, "channel": f.candidate.channel, "delta_bic": f.dbic,
