@@ -579,11 +579,29 @@ def _run_scaler(out: Path, asked: int | None) -> int:
         have = 1
     else:
         have = SCALER_VERSION if asked is None else asked
-        meta.write_text(json.dumps({"scaler_version": have}))
+        meta.write_text(json.dumps({"scaler_version": have, **provenance()}, indent=1))
     if asked is not None and asked != have:
         raise SystemExit(f"error: --scaler-version {asked}, but the run in {out} was made with "
                          f"version {have}; use another --out")
     return have
+
+
+def provenance() -> dict:
+    """Which code ran: the imported package's folder and its git commit (a run started in
+    a git worktree imports the *editable install's* tmopt unless PYTHONPATH names the
+    worktree -- two arms of a paired run would then run one code), and the libraries."""
+    import subprocess
+
+    import tmopt
+    from tmopt.run.outputs import library_versions
+
+    src = Path(tmopt.__file__).resolve().parent
+    try:
+        commit = subprocess.run(["git", "-C", str(src), "describe", "--always", "--dirty"],
+                                capture_output=True, text=True, timeout=30).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        commit = ""
+    return {"tmopt": str(src), "commit": commit or "unknown", "versions": library_versions()}
 
 
 def main_realistic(args) -> int:
@@ -591,6 +609,9 @@ def main_realistic(args) -> int:
     (out / "realistic_reports").mkdir(parents=True, exist_ok=True)
     backends = ("kernel", "foreign") if args.backend == "both" else (args.backend,)
     scaler = _run_scaler(out, getattr(args, "scaler_version", None))
+    code = provenance()
+    print(f"tmopt from {code['tmopt']} at {code['commit']}; SNR scaler version {scaler}",
+          flush=True)  # fmt: skip
     todo = [c for b in backends for c in cases(b, args.seed_base, args.quick, scaler)]
     # a fixed shuffle: a run stopped early has scored every category and both simulators
     todo = [todo[i] for i in np.random.default_rng(0).permutation(len(todo))]
