@@ -194,3 +194,24 @@ def test_a_run_keeps_its_scaler_version_and_refuses_another(bench, tmp_path):
     (old / "realistic_rows.jsonl").write_text("")
     assert mr._run_scaler(old, None) == 1
     assert all(c["scaler"] == 1 for c in mr.cases("foreign", 40000, True, 1))
+
+
+def test_the_clean_calibration_counts_the_defaults_alarms_and_refuses_a_benchmark_seed(
+        bench, capsys, monkeypatch):  # fmt: skip
+    """``mismatch_calibration.py --realistic``: the full defaults' false alarms per
+    simulator with what raised each; a seed base inside the benchmark's range is refused
+    in one line before anything runs."""
+    monkeypatch.syspath_prepend(str(EXPERIMENTS))
+    import mismatch_calibration as mc
+
+    assert mc.main(["--realistic", "--seed-base", "40000"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--seed-base" in err[0]
+    raised = {"what": "curvature", "channel": "x2", "glr": 28.2, "p_holm": 0.0037,
+              "delta_bic": 10.0, "trials": 1.0}  # fmt: skip
+    rows = [{"backend": b, "seed": s, "refused": "", "min_p_holm": 0.5, "locate_p": 0.5,
+             "false_alarm": False, "raised": []} for b in ("kernel", "foreign") for s in range(4)]
+    rows[0].update(false_alarm=True, raised=[raised], min_p_holm=0.0037)
+    text = mc.realistic_summary(rows)
+    assert "| kernel | 1/4 | 0.250 |" in text and "| both | 1/8 | 0.125 |" in text
+    assert "kernel 0: curvature[x2] GLR 28.2 p_holm 0.0037" in text
