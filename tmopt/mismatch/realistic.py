@@ -727,7 +727,9 @@ def signature_snr(scenario: Scenario, effects: Sequence[Injection] = (),
     clean recording with the same seed, against the noise PSD of the difference of two
     clean recordings (seeds ``seed``, ``seed + 7919``); matched filter, or the excess-power
     statistic for noise-like effects.  Gaps are left out (the signature of the full run).
-    ``clean`` caches the clean families and PSDs between calls.
+    Every family has its force channels paired by the clean recording's force lag
+    (``clean["force_lag"]``; 0 under scaler version 1, :data:`SCALER_VERSION`).
+    ``clean`` caches the clean families, PSDs and lag between calls.
     """
     clean = _clean_cache(scenario, seed, backend) if clean is None else clean
     rec, _ = realistic_recording(scenario, effects, ooc, seed, backend, gaps=False)
