@@ -9,7 +9,7 @@ the ``kernel`` (the project's simulator) or the ``foreign`` (independent) backen
 truth is read by the scorer only.
 
 Seed ranges (disjoint, so nothing is tuned on the benchmark's own recordings):
-development 0-99 (used while building the tool), calibration 20000-20199, benchmark
+development 0-99 (used while building the tool), calibration 20000-22199, benchmark
 40000 onwards.
 """
 
