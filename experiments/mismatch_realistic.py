@@ -566,10 +566,11 @@ def only(todo: list[dict], spec: str) -> list[dict]:
             if (c["backend"], c["seed"]) in keys or (None, c["seed"]) in keys]  # fmt: skip
 
 
-def _run_scaler(out: Path, asked: int | None) -> int:
+def _run_scaler(out: Path, asked: int | None, code: dict) -> int:
     """The SNR scaler version of the run in ``out``: kept in ``realistic_meta.json`` so a
     resumed or re-scored run regenerates its own recordings.  A run made before the file
-    existed used version 1; asking for another version there is an error."""
+    existed used version 1; asking for another version there is an error.  ``code``: this
+    process' :func:`provenance`, kept with a new run's version."""
     from tmopt.mismatch.realistic import SCALER_VERSION
 
     meta = out / "realistic_meta.json"
@@ -579,7 +580,7 @@ def _run_scaler(out: Path, asked: int | None) -> int:
         have = 1
     else:
         have = SCALER_VERSION if asked is None else asked
-        meta.write_text(json.dumps({"scaler_version": have, **provenance()}, indent=1))
+        meta.write_text(json.dumps({"scaler_version": have, **code}, indent=1))
     if asked is not None and asked != have:
         raise SystemExit(f"error: --scaler-version {asked}, but the run in {out} was made with "
                          f"version {have}; use another --out")
@@ -608,8 +609,8 @@ def main_realistic(args) -> int:
     out = Path(args.out)
     (out / "realistic_reports").mkdir(parents=True, exist_ok=True)
     backends = ("kernel", "foreign") if args.backend == "both" else (args.backend,)
-    scaler = _run_scaler(out, getattr(args, "scaler_version", None))
     code = provenance()
+    scaler = _run_scaler(out, getattr(args, "scaler_version", None), code)
     print(f"tmopt from {code['tmopt']} at {code['commit']}; SNR scaler version {scaler}",
           flush=True)  # fmt: skip
     todo = [c for b in backends for c in cases(b, args.seed_base, args.quick, scaler)]

@@ -180,19 +180,19 @@ def test_a_run_keeps_its_scaler_version_and_refuses_another(bench, tmp_path):
     _, mr = bench
     new, old = tmp_path / "new", tmp_path / "old"
     new.mkdir()
-    assert mr._run_scaler(new, None) == 2
+    assert mr._run_scaler(new, None, mr.provenance()) == 2
     meta = json.loads((new / "realistic_meta.json").read_text())
     assert meta["scaler_version"] == 2
     import tmopt  # the code that ran, so two arms of a paired run can be told apart
 
     assert meta["tmopt"] == str(Path(tmopt.__file__).resolve().parent)
     assert meta["commit"] and "torch" in meta["versions"]
-    assert mr._run_scaler(new, 2) == 2
+    assert mr._run_scaler(new, 2, {}) == 2
     with pytest.raises(SystemExit, match="--scaler-version 1, but the run in .* version 2"):
-        mr._run_scaler(new, 1)
+        mr._run_scaler(new, 1, {})
     old.mkdir()
     (old / "realistic_rows.jsonl").write_text("")
-    assert mr._run_scaler(old, None) == 1
+    assert mr._run_scaler(old, None, {}) == 1
     assert all(c["scaler"] == 1 for c in mr.cases("foreign", 40000, True, 1))
 
 

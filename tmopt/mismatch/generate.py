@@ -265,10 +265,11 @@ def residual_families(rec: Recording, force_lag: int = 0) -> dict[str, np.ndarra
     x = np.array([rec[a] for a in AXES])
     acc = np.array([rec[f"acc_{a}"] for a in AXES])
     force = np.array([rec[f"force_{a}"] for a in AXES])
+    xe, acce = x, acc  # Eq. 10's samples (force paired); the kinematic check: all of x, acc
     if force_lag:
         keep = np.arange(max(0, -force_lag), x.shape[1] - max(0, force_lag))
-        x, acc, force = x[:, keep], acc[:, keep], force[:, keep + force_lag]
-    d = acc - force
+        xe, acce, force = x[:, keep], acc[:, keep], force[:, keep + force_lag]
+    d = acce - force
     wa, wb = geo.w_sa[:2, :2], geo.w_sb[:2, :2]
     proj = np.array([wa[0], wb[0], wa[1], wb[1]])  # f_B^s seen by each axis (Eqs. 6-7)
     k = geo.coefficients() / np.linalg.norm(geo.coefficients())
@@ -276,16 +277,14 @@ def residual_families(rec: Recording, force_lag: int = 0) -> dict[str, np.ndarra
     ell = null[np.argmax(np.linalg.norm(null - np.outer(null @ k, k), axis=1))]
     ell = ell - (ell @ k) * k
     basis = np.array([k, ell / np.linalg.norm(ell)])  # (2, 4)
-    n = x.shape[1]
+    n = xe.shape[1]
     cols = np.zeros((2 * n, 6))
     for a in range(4):  # stiffness of axis a, seen through both combinations
-        cols[:n, a], cols[n:, a] = basis[0, a] * x[a], basis[1, a] * x[a]
+        cols[:n, a], cols[n:, a] = basis[0, a] * xe[a], basis[1, a] * xe[a]
     cols[:n, 4], cols[n:, 5] = 1.0, 1.0
     y = (basis @ d).ravel()
     fam = {"eq": (y - cols @ np.linalg.lstsq(cols, y, rcond=None)[0]).reshape(2, n)}
     h2 = rec.dt**2
-    x = np.array([rec[a] for a in AXES])  # the kinematic check uses no force: all samples
-    acc = np.array([rec[f"acc_{a}"] for a in AXES])
     for a, name in enumerate(AXES):
         fam[f"kin_{name}"] = (x[a, 2:] - 2 * x[a, 1:-1] + x[a, :-2]
                               - 0.5 * h2 * (acc[a, 1:-1] + acc[a, :-2]))[None]  # fmt: skip

@@ -756,7 +756,7 @@ def _clean_cache(scenario: Scenario, seed: int, backend: str,
     b = _families(realistic_recording(scenario, (), (), seed + 7919, backend, gaps=False)[0],
                   lag)  # fmt: skip
     psd = {k: _psd_on_grid((a[k] - b[k]) / math.sqrt(2), scenario.sample_rate) for k in a}
-    return {"fam": a, "psd": psd, "force_lag": lag, "version": version}
+    return {"fam": a, "psd": psd, "force_lag": lag}
 
 
 def scale_to_snr(scenario: Scenario, item: Injection | OOC, target: float, seed: int,
