@@ -690,9 +690,11 @@ def diagnosed_case(case: dict):
     return diagnose(data_from_recording(rec)), snrs, None
 
 
-def calibration_cli(description: str, n_default: int, out_default: str, argv=None):
-    """The command line of a calibration script (``--n`` rounds, ``--jobs``, ``--out``):
-    the parsed arguments, or None after one line on stderr for a bad count."""
+def calibration_cli(description: str, n_default: int, out_default: str, argv=None,
+                    extra: dict | None = None):
+    """The command line of a calibration script (``--n`` rounds, ``--jobs``, ``--out``,
+    and the script's own ``extra`` options: ``{flag: argparse keywords}``): the parsed
+    arguments, or None after one line on stderr for a bad count."""
     import argparse
     import sys
 
@@ -700,6 +702,8 @@ def calibration_cli(description: str, n_default: int, out_default: str, argv=Non
     ap.add_argument("--n", type=int, default=n_default, help="rounds of the set per simulator")
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--out", default=out_default)
+    for flag, kw in (extra or {}).items():
+        ap.add_argument(flag, **kw)
     a = ap.parse_args(argv)
     if a.n < 1 or a.jobs < 1:
         print("--n and --jobs must be integers >= 1", file=sys.stderr)

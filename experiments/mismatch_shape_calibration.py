@@ -1,20 +1,22 @@
-"""Calibration of the drift's shape check (``SHAPE_ALPHA``) on flight-like recordings.
+"""Calibration of a drift's shape check (``SHAPE_ALPHA``) on flight-like recordings.
 
-    python experiments/mismatch_shape_calibration.py [--n 20] [--jobs 1] [--out DIR]
+    python experiments/mismatch_shape_calibration.py [--effect bias_drift|stiffness_drift] \\
+        [--n 20] [--jobs 1] [--out DIR]
 
-A selected ``bias_drift`` is reported ambiguous, its channel unexplained, when Legendre
-P2 + P3 of time added to the final model are significant at ``SHAPE_ALPHA``
-(:meth:`tmopt.mismatch.effects.bias_drift.BiasDrift.shape_check`).  Two sets, both
-simulators, seeds 33000 onwards (never the benchmark's 40000 on, nor the development
-seeds < 20000):
+A selected ``bias_drift`` or ``stiffness_drift`` is reported ambiguous, its channel
+unexplained, when Legendre P2 + P3 of time (times the axis' position, for the stiffness)
+added to the final model are significant at ``SHAPE_ALPHA``
+(:meth:`tmopt.mismatch.effects.base.Effect.curvature_in_time`).  Two sets, both
+simulators, seeds 33000 onwards for the bias drift and 34000 onwards for the stiffness
+drift (never a benchmark set's, 40000 on, nor the development seeds < 20000):
 
-* **null** -- a true *linear* bias drift at SNR 20 and 60 (alternating) in each
-  recording's own coloured noise: the share of them the check flags is its false-misfit
-  rate (the price in attribution); it should be near ``SHAPE_ALPHA`` if the coloured
-  noise model holds at the record's lowest frequencies;
-* **power** -- slow curved bias changes the catalogue has no name for (a 1e-4 Hz
-  modulation, a thermal relaxation), SNR 40: the share that is no longer named
-  ``bias_drift`` with confidence.
+* **null** -- a true *linear* drift at SNR 20 and 60 (alternating) in each recording's
+  own coloured noise: the share of them the check flags is its false-misfit rate (the
+  price in attribution); it should be near ``SHAPE_ALPHA`` if the coloured noise model
+  holds where the check's columns live;
+* **power** -- changes the catalogue has no name for, SNR 40: for the bias a 1e-4 Hz
+  modulation and a thermal relaxation, for the stiffness a stiffness step; the share
+  that is no longer named the drift with confidence.
 
 Prints each recording's shape-check p-value and the two rates.  The level is a plain test
 level fixed before this run (0.01), not tuned on it.
@@ -28,21 +30,23 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-SEED_BASE = 33000
+#: Per checked effect: its seed base and the out-of-catalogue changes of its power set.
+EFFECTS = {"bias_drift": (33000, ("bias_modulation", "thermal_relaxation")),
+           "stiffness_drift": (34000, ("stiffness_step",))}
 
 
-def jobs(n: int) -> list[dict]:
+def jobs(n: int, effect: str = "bias_drift") -> list[dict]:
+    base, power = EFFECTS[effect]
     out = []
     for i in range(n):
         for backend in ("kernel", "foreign"):
             snr = 20.0 if i % 2 == 0 else 60.0
             out.append({"set": "null", "backend": backend, "category": "catalogue",
-                        "seed": SEED_BASE + i,
-                        "items": [{"kind": "effect", "name": "bias_drift", "snr": snr}]})
-            name = "bias_modulation" if i % 2 == 0 else "thermal_relaxation"
+                        "seed": base + i, "effect": effect,
+                        "items": [{"kind": "effect", "name": effect, "snr": snr}]})
             out.append({"set": "power", "backend": backend, "category": "out-of-catalogue",
-                        "seed": SEED_BASE + 500 + i,
-                        "items": [{"kind": "ooc", "name": name, "snr": 40.0}]})
+                        "seed": base + 500 + i, "effect": effect,
+                        "items": [{"kind": "ooc", "name": power[i % len(power)], "snr": 40.0}]})
     return out
 
 
@@ -60,7 +64,7 @@ def run(job: dict) -> dict:
     row["snr"] = snrs[0]
     row["selected"] = [ev.candidate.key for ev, _ in dg.selected]
     checks = [] if dg.refused else shape_misfits(dg.data, dg.basis, dg.after, dg.selected, 1.0)
-    drift = [c for c in checks if c["key"].startswith("bias_drift")]
+    drift = [c for c in checks if c["key"].startswith(job.get("effect", "bias_drift"))]
     row["shape_p"] = drift[0]["p_value"] if drift else None
     row["flagged"] = [m["key"] for m in dg.misfits]
     row["cpu_s"] = time.process_time() - t0
@@ -71,10 +75,10 @@ def main(argv=None) -> int:
     from mismatch_realistic import calibration_cli, streamed_rows
 
     a = calibration_cli(__doc__.splitlines()[0], 20, "experiments/out/mismatch_shape_calibration",
-                        argv)
+                        argv, {"--effect": {"choices": tuple(EFFECTS), "default": "bias_drift"}})
     if a is None:
         return 2
-    rows = streamed_rows(Path(a.out) / "rows.jsonl", jobs(a.n), run, a.jobs)
+    rows = streamed_rows(Path(a.out) / "rows.jsonl", jobs(a.n, a.effect), run, a.jobs)
     from tmopt.mismatch.calibration import SHAPE_ALPHA
 
     for s in ("null", "power"):
@@ -82,7 +86,7 @@ def main(argv=None) -> int:
             rs = [r for r in rows if r["set"] == s and r["backend"] == b and "error" not in r]
             named = [r for r in rs if r["shape_p"] is not None]
             flag = [r for r in named if r["shape_p"] < SHAPE_ALPHA]
-            print(f"{s:5s} {b:7s}: {len(rs)} recordings, drift selected in {len(named)}, "
+            print(f"{s:5s} {b:7s}: {len(rs)} recordings, {a.effect} selected in {len(named)}, "
                   f"shape check flags {len(flag)} (p < {SHAPE_ALPHA})")
     return 0
 

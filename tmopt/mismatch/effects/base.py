@@ -340,6 +340,22 @@ class Effect:
         as a linear drift), and the name is reported ambiguous, the channel unexplained."""
         return []
 
+    @staticmethod
+    def curvature_in_time(ctx: Context, cand: Candidate,
+                          carrier: np.ndarray | None = None) -> list[Column]:  # fmt: skip
+        """The shape check of an effect that promises a *linear* change in time: Legendre
+        P2 and P3 of the record's time (u in [-1, 1]), times ``carrier`` (N,) -- the
+        regressor the change multiplies (none for a force, ``x_a`` for a stiffness) --, on
+        ``cand``'s axis.  A linear change leaves nothing for them; a step, a relaxation or
+        a slow modulation does (an odd P3 takes a step near the middle, an even P2 one
+        near either end).  Two columns, so the check is one 2-dof test."""
+        d = ctx.data
+        u = 2.0 * d.centred_time / max(float(np.ptp(d.time)), d.dt)
+        a = AXES.index(cand.channel)
+        c = np.ones_like(u) if carrier is None else carrier
+        return [Column(f"shape:{cand.key}:P{k}", axis_column(ctx.basis, a, poly * c))
+                for k, poly in ((2, 1.5 * u**2 - 0.5), (3, 2.5 * u**3 - 1.5 * u))]  # fmt: skip
+
     def same_event(self, a: Candidate, b: Candidate) -> bool:
         """Are two selected candidates of this (repeatable) effect pieces of one physical
         event, reported and counted once (:func:`tmopt.mismatch.diagnose.events`)?"""

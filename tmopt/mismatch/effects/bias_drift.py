@@ -6,8 +6,6 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import Any
 
-import numpy as np
-
 from tmopt.mismatch.effects.base import (
     AXES,
     Builder,
@@ -19,7 +17,7 @@ from tmopt.mismatch.effects.base import (
     finite,
     ramp_average,
 )
-from tmopt.mismatch.fit import Column, axis_column
+from tmopt.mismatch.fit import Column
 
 
 class BiasDrift(Effect):
@@ -57,13 +55,10 @@ class BiasDrift(Effect):
                 for i, a in enumerate(AXES)]  # fmt: skip
 
     def shape_check(self, ctx: Context, cand: Candidate) -> list[Column]:
-        """Legendre P2 and P3 of the record's time on the drift's axis: a linear drift
-        leaves nothing for them; a slow modulation, a relaxation or any curved bias
-        change does (over a record shorter than its period a 1e-4 Hz modulation is mostly
-        a ramp; only its curved part tells them apart -- when that part is below the
-        noise, the data cannot, and the drift name stands)."""
-        d = ctx.data
-        u = 2.0 * d.centred_time / max(float(np.ptp(d.time)), d.dt)  # [-1, 1]
-        a = AXES.index(cand.channel)
-        return [Column(f"shape:{cand.key}:P{k}", axis_column(ctx.basis, a, poly))
-                for k, poly in ((2, 1.5 * u**2 - 0.5), (3, 2.5 * u**3 - 1.5 * u))]  # fmt: skip
+        """Legendre P2 and P3 of the record's time on the drift's axis
+        (:meth:`~tmopt.mismatch.effects.base.Effect.curvature_in_time`): a slow
+        modulation, a relaxation or any curved bias change needs them (over a record
+        shorter than its period a 1e-4 Hz modulation is mostly a ramp; only its curved
+        part tells them apart -- when that part is below the noise, the data cannot, and
+        the drift name stands)."""
+        return self.curvature_in_time(ctx, cand)

@@ -18,6 +18,7 @@ from tmopt.mismatch.effects.base import (
     finite,
     ramp,
 )
+from tmopt.mismatch.fit import Column
 
 
 class StiffnessDrift(Effect):
@@ -54,3 +55,12 @@ class StiffnessDrift(Effect):
         return [self.equation_candidate(a, "kdot", "s^-3", t * ctx.data.x_eq[i], ctx, i,
                                         self.plausible / span)
                 for i, a in enumerate(AXES)]  # fmt: skip
+
+    def shape_check(self, ctx: Context, cand: Candidate) -> list[Column]:
+        """Legendre P2 and P3 of the record's time times the axis' position
+        (:meth:`~tmopt.mismatch.effects.base.Effect.curvature_in_time`): a stiffness that
+        steps, relaxes or wanders needs them; a linear drift does not.  Without the check
+        a stiffness step passed as a ramp (benchmark 140000: k140129, k140131, docs/
+        mismatch.md 9.16)."""
+        return self.curvature_in_time(ctx, cand, ctx.data.x_eq[AXES.index(cand.channel)])
+
