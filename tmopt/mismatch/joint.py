@@ -63,7 +63,7 @@ from tmopt.mismatch import calibration as cal
 from tmopt.mismatch.effects import EFFECTS
 
 __all__ = ["DRIFT_LIKE", "INFLATION", "TOP", "PAIR_TOP", "MAX_ADDED", "family", "alt_statistics",
-           "JointTest", "extend", "screened", "pair_indices", "trials"]
+           "JointTest", "extend", "screened", "pair_indices", "trials", "retest", "eligible"]
 
 #: Effects whose columns are slow in time: their null distribution under the
 #: alternative's noise is inflated by the 1/f^2 acceleration noise (random-walk ramps).
@@ -194,9 +194,11 @@ def _as_evaluation(test: JointTest, ev):
                       test.p_value, test.p_value)  # fmt: skip
 
 
-def _retest(data, basis, others: list, ev, settings, m: int) -> JointTest:
-    """One selected candidate re-tested given the ``others`` selected (the backward pass
-    of the stage: its statistic with the full model's noise)."""
+def retest(data, basis, others: list, ev, settings, m: int) -> JointTest:
+    """One selected candidate re-tested given the ``others`` selected, with the noise
+    model re-estimated under the alternative (the backward pass of the stage, and the
+    re-judging of a weak name, :func:`tmopt.mismatch.diagnose.rejudged`), scored with
+    ``m`` re-tests."""
     from tmopt.mismatch.diagnose import _rebuild
 
     state = _rebuild(data, basis, others, settings)
@@ -251,7 +253,7 @@ def extend(data, basis, state, selected: list, settings, tests, n_tests: int,
         for i in reversed(range(len(chosen))):
             others = chosen[:i] + chosen[i + 1:]
             if id(chosen[i]) in added:
-                ok = _retest(data, basis, others, chosen[i], settings,
+                ok = retest(data, basis, others, chosen[i], settings,
                              added[id(chosen[i])]).significant(settings.alpha)  # fmt: skip
             else:
                 ok = _still_needed(data, basis, chosen, i, settings, n_tests)

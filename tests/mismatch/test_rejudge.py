@@ -1,0 +1,76 @@
+"""A weak name judged again under the alternative's noise model (issue 26; docs/mismatch.md
+9.16; :func:`tmopt.mismatch.diagnose.rejudged`).
+
+The selection whitens with a noise model estimated from the residual that still holds the
+candidate; in the record's lowest bins that model takes in a slow signature's power, so a
+rotation coupling's slew stayed at GLR 23-30 whatever its size and was reported "ambiguous
+... or no effect" (the 130000 and 140000 sets: 7 of the 11 misses the physical limit does
+not excuse).  Development seeds (< 20000), both simulators' generator as in the benchmark.
+"""
+
+from __future__ import annotations
+
+from tmopt.mismatch.diagnose import (
+    Settings,
+    _Evaluations,
+    diagnose,
+    fit_state,
+    prepare,
+    rejudged,
+)
+from tmopt.mismatch.effects import Injection
+from tmopt.mismatch.fit import data_from_recording
+from tmopt.mismatch.generate import MAGNITUDES
+from tmopt.mismatch.realistic import draw_scenario, realistic_recording, scale_to_snr
+from tmopt.mismatch.report import build_report
+
+
+def _rotation_recording(seed: int, snr: float, backend: str = "kernel"):
+    sc = draw_scenario(seed, backend)
+    inj = Injection("rotation_coupling", MAGNITUDES["rotation_coupling"]["large"], "omega_z")
+    inj = scale_to_snr(sc, inj, snr, seed, backend)[0]
+    return realistic_recording(sc, [inj], [], seed, backend)[0]
+
+
+def test_a_rotation_whose_evidence_the_nulls_noise_took_in_is_named():
+    """Kernel seed 651, a slew at SNR 25: weak under the selection's noise model (delta BIC
+    2.3), strong under the alternative's (statistic ~300); named, and the note says why.
+    With ``rejudge=False`` (the tool before) it stays ambiguous with its channel
+    unexplained."""
+    rec = _rotation_recording(651, 25.0)
+    dg = diagnose(data_from_recording(rec))
+    rep = build_report(dg)
+    assert [(e["name"], e["channel"]) for e in rep["effects"]] == \
+        [("rotation_coupling", "TM1-TM2")], rep["conclusion"]  # fmt: skip
+    [use] = rep["data_used"]["rejudged"]
+    assert use["strong"] and use["delta_bic_null"] < 6 <= use["delta_bic"], use
+    assert any("strong with the noise re-estimated" in n for n in rep["notes"]), rep["notes"]
+    before = build_report(diagnose(data_from_recording(rec), Settings(rejudge=False)))
+    assert not before["effects"], before["conclusion"]
+    assert [a["name"] for a in before["ambiguous"]] == ["rotation_coupling"]
+
+
+def test_on_a_clean_recording_nothing_is_lifted_and_drifts_are_never_rejudged():
+    """The null side, candidate by candidate: on a clean recording every candidate of the
+    first step is weak; re-judged as if selected, the rotation (the "other" family, its
+    statistic deflated by the calibrated ``JOINT_INFLATION``) is not lifted, and a drift is
+    not re-judged at all (on 1/f^2 noise its statistic under the alternative takes the
+    random walk's ramp: clean kernel 22045, docs 9.16)."""
+    for backend, seed in (("kernel", 651), ("foreign", 652)):
+        sc = draw_scenario(seed, backend)
+        data, basis = prepare(data_from_recording(realistic_recording(sc, [], [], seed,
+                                                                      backend)[0]))  # fmt: skip
+        settings = Settings()
+        state = fit_state(data, basis, [], [], False, settings)
+        evals = _Evaluations(data, basis, settings)(state, set())
+        picked = [e for e in evals if e.candidate.effect in ("rotation_coupling", "bias_drift",
+                                                             "stiffness_drift")]  # fmt: skip
+        assert {e.candidate.effect for e in picked} == {"rotation_coupling", "bias_drift",
+                                                       "stiffness_drift"}  # fmt: skip
+        for ev in picked:
+            data.usage.pop("rejudged", None)
+            assert rejudged(data, basis, [(ev, [])], settings, len(evals)) == set()
+            tested = [u["key"] for u in data.usage.get("rejudged", [])]
+            drift = ev.candidate.effect != "rotation_coupling"
+            assert tested == ([] if drift or ev.dbic >= 6 else [ev.candidate.key]), \
+                (backend, ev.candidate.key, ev.dbic)  # fmt: skip
