@@ -31,6 +31,14 @@ def test_cli_writes_the_report(recording, tmp_path, capsys, name):
     assert rep["mismatch_detected"] is False
     assert (out / "report.md").exists() and (out / "residual_psd.png").exists()
     assert "no significant mismatch" in capsys.readouterr().out
+    assert rep["settings"]["rejudge"] is True
+
+
+def test_cli_can_turn_the_rejudging_of_weak_names_off(recording, tmp_path):
+    out = tmp_path / "out"
+    assert main([str(recording / "clean.h5"), "--out", str(out), "--no-rejudge",
+                 "--no-plots"]) == 0  # fmt: skip
+    assert json.loads((out / "report.json").read_text())["settings"]["rejudge"] is False
 
 
 def test_cli_reports_a_bad_file_in_one_line(tmp_path, capsys):

@@ -48,6 +48,7 @@ def test_a_rotation_whose_evidence_the_nulls_noise_took_in_is_named():
     before = build_report(diagnose(data_from_recording(rec), Settings(rejudge=False)))
     assert not before["effects"], before["conclusion"]
     assert [a["name"] for a in before["ambiguous"]] == ["rotation_coupling"]
+    assert rep["settings"]["rejudge"] and not before["settings"]["rejudge"]
 
 
 def test_on_a_clean_recording_nothing_is_lifted_and_drifts_are_never_rejudged():

@@ -28,6 +28,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--joint", action="store_true",
                    help="run the joint stage (re-tests under the alternative's noise model; "
                         "off by default, docs/mismatch.md 9.9)")  # fmt: skip
+    p.add_argument("--no-rejudge", action="store_true",
+                   help="do not judge a weak name again under the alternative's noise model "
+                        "(on by default, docs/mismatch.md 9.16)")  # fmt: skip
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--design-next", action="store_true",
                    help="also design the next excitation into --out (python -m tmopt.design)")
@@ -52,7 +55,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     settings = Settings(alpha=args.alpha, locate_alpha=args.locate_alpha,
-                        max_effects=args.max_effects, joint=args.joint)  # fmt: skip
+                        max_effects=args.max_effects, joint=args.joint,
+                        rejudge=not args.no_rejudge)  # fmt: skip
     dg = diagnose(data_from_recording(rec), settings)
     rep = write_report(dg, args.out, plots=not args.no_plots)
     print(rep["conclusion"])

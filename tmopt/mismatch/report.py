@@ -297,7 +297,8 @@ def _refused_report(dg: Diagnosis) -> dict:
 def _settings(dg: Diagnosis) -> dict:
     return {"family_alpha": dg.settings.alpha, "locate_alpha": dg.settings.locate_alpha,
             "max_effects": dg.settings.max_effects, "noise": dg.settings.noise,
-            "joint": dg.settings.joint, "lowfreq": list(dg.settings.lowfreq)}  # fmt: skip
+            "joint": dg.settings.joint, "lowfreq": list(dg.settings.lowfreq),
+            "rejudge": dg.settings.rejudge}  # fmt: skip
 
 
 def build_report(dg: Diagnosis) -> dict:
