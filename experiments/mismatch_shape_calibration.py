@@ -63,9 +63,12 @@ def run(job: dict) -> dict:
         return {**row, "error": error}
     row["snr"] = snrs[0]
     row["selected"] = [ev.candidate.key for ev, _ in dg.selected]
-    checks = [] if dg.refused else shape_misfits(dg.data, dg.basis, dg.after, dg.selected, 1.0)
+    checks = [] if dg.refused else shape_misfits(dg.data, dg.basis, dg.after, dg.selected, 1.0,
+                                                 alternative=True)  # fmt: skip
     drift = [c for c in checks if c["key"].startswith(job.get("effect", "bias_drift"))]
     row["shape_p"] = drift[0]["p_value"] if drift else None
+    row["shape_glr"] = drift[0]["glr"] if drift else None
+    row["shape_glr_alt"] = drift[0]["glr_alt"] if drift else None
     row["flagged"] = [m["key"] for m in dg.misfits]
     row["cpu_s"] = time.process_time() - t0
     return row

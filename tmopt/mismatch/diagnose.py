@@ -851,7 +851,8 @@ def _deterministic_instead(data, basis, state: State, evals: list[Evaluation],
 
 
 def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
-                  alpha: float = cal.SHAPE_ALPHA, lowfreq: bool = False) -> list[dict]:  # fmt: skip
+                  alpha: float = cal.SHAPE_ALPHA, lowfreq: bool = False,
+                  alternative: bool = False) -> list[dict]:  # fmt: skip
     """Selected catalogue effects whose shape the final residual contradicts: the
     effect's :meth:`~tmopt.mismatch.effects.base.Effect.shape_check` columns, added to the
     final model, are significant at ``alpha`` (GLR ~ chi^2, one test per effect; ``alpha``
@@ -859,7 +860,9 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
     null calibrated under the 1/f^2 background, :func:`lowfreq_glr` -- measured, not used
     by :func:`diagnose`: it names a slow modulation a drift, docs/mismatch.md 9.11).
     Each: ``{"key", "channel", "glr", "dof", "p_value"}`` (``glr``: the chi^2-equivalent
-    statistic)."""
+    statistic); with ``alternative`` also ``"glr_alt"``, the check's GLR with the spectrum
+    re-estimated under it (:func:`tmopt.mismatch.joint.alt_glr`; measured for
+    calibration, docs/mismatch.md 9.16)."""
     ctx = Context(data, basis, state.eq_fit.residual, state.eq_noise)
     group = _Group(None, state.eq_cols, state.eq_fit, state.eq_noise.whiten)
     out = []
@@ -876,6 +879,10 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
         if p < alpha:
             out.append({"key": cand.key, "channel": cand.channel, "glr": lam,
                         "dof": len(cols), "p_value": p})  # fmt: skip
+            if alternative:
+                from tmopt.mismatch import joint
+
+                out[-1]["glr_alt"] = joint.alt_glr(data, basis, state, cols, Settings())[0]
     return out
 
 

@@ -63,7 +63,8 @@ from tmopt.mismatch import calibration as cal
 from tmopt.mismatch.effects import EFFECTS
 
 __all__ = ["DRIFT_LIKE", "INFLATION", "TOP", "PAIR_TOP", "MAX_ADDED", "family", "alt_statistics",
-           "JointTest", "extend", "screened", "pair_indices", "trials", "retest", "eligible"]
+           "JointTest", "extend", "screened", "pair_indices", "trials", "retest", "eligible",
+           "alt_glr"]
 
 #: Effects whose columns are slow in time: their null distribution under the
 #: alternative's noise is inflated by the 1/f^2 acceleration noise (random-walk ramps).
@@ -156,12 +157,7 @@ def alt_statistics(data, basis, state, evals: list, settings, pairs: bool,
     selection's final model; ``screen`` defaults to ``settings.alpha``, 1 re-tests the
     :data:`TOP` strongest eligible ones), and of their pairs (:func:`pair_indices`)
     when ``pairs``."""
-    from tmopt.mismatch.diagnose import _fit_eq, _Group
-    from tmopt.mismatch.fit import equation_target, solve
-
     cands = screened(evals, settings.alpha if screen is None else screen, n_tests)
-    target = equation_target(data, basis)
-    kind = "smoothed" if settings.noise == "coloured" else "white"
     sets = [[e] for e in cands]
     if pairs:
         sets += [[cands[i], cands[j]]
@@ -169,18 +165,31 @@ def alt_statistics(data, basis, state, evals: list, settings, pairs: bool,
     out = []
     for members in sets:
         cols = [c for e in members for c in e.candidate.columns]
-        _, noise1 = _fit_eq(target, state.eq_cols + cols, state.red, data.layout, data.fs,
-                            kind)  # fmt: skip
-        fit0 = solve(target, state.eq_cols, noise1.whiten)
-        group = _Group(None, state.eq_cols, fit0, noise1.whiten)
+        glr, n = alt_glr(data, basis, state, cols, settings)
         fams = {family(e.candidate.effect) for e in members}
         out.append(JointTest(
             evals=members, glr_null=float(sum(e.glr for e in members)),
-            glr_alt=group.glr(cols), dof=len(cols),
+            glr_alt=glr, dof=len(cols),
             trials=math.prod(e.candidate.trials for e in members),
-            n_searched=sum(e.candidate.n_searched for e in members), n_obs=group.n,
+            n_searched=sum(e.candidate.n_searched for e in members), n_obs=n,
             family="drift" if "drift" in fams else "other"))  # fmt: skip
     return out
+
+
+def alt_glr(data, basis, state, cols: list, settings) -> tuple[float, int]:
+    """GLR of the equation-group columns ``cols`` added to ``state``'s, both fits whitened
+    by the spectrum re-estimated from the residual of the fit *with* them (feasible GLS
+    as the selection's, :func:`tmopt.mismatch.diagnose._fit_eq`): ``(L, n)`` with ``n``
+    the whitened residual's size."""
+    from tmopt.mismatch.diagnose import _fit_eq, _Group
+    from tmopt.mismatch.fit import equation_target, solve
+
+    target = equation_target(data, basis)
+    kind = "smoothed" if settings.noise == "coloured" else "white"
+    _, noise1 = _fit_eq(target, state.eq_cols + cols, state.red, data.layout, data.fs, kind)
+    fit0 = solve(target, state.eq_cols, noise1.whiten)
+    group = _Group(None, state.eq_cols, fit0, noise1.whiten)
+    return group.glr(cols), group.n
 
 
 def _as_evaluation(test: JointTest, ev):
