@@ -34,11 +34,12 @@ def test_cli_writes_the_report(recording, tmp_path, capsys, name):
     assert rep["settings"]["rejudge"] is True
 
 
-def test_cli_can_turn_the_rejudging_of_weak_names_off(recording, tmp_path):
+def test_cli_can_turn_the_stop_40_rules_off(recording, tmp_path):
     out = tmp_path / "out"
     assert main([str(recording / "clean.h5"), "--out", str(out), "--no-rejudge",
-                 "--no-plots"]) == 0  # fmt: skip
-    assert json.loads((out / "report.json").read_text())["settings"]["rejudge"] is False
+                 "--no-in-place", "--no-plots"]) == 0  # fmt: skip
+    settings = json.loads((out / "report.json").read_text())["settings"]
+    assert settings["rejudge"] is False and settings["in_place"] is False
 
 
 def test_cli_reports_a_bad_file_in_one_line(tmp_path, capsys):

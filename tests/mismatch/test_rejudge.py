@@ -75,3 +75,26 @@ def test_on_a_clean_recording_nothing_is_lifted_and_drifts_are_never_rejudged():
             drift = ev.candidate.effect != "rotation_coupling"
             assert tested == ([] if drift or ev.dbic >= 6 else [ev.candidate.key]), \
                 (backend, ev.candidate.key, ev.dbic)  # fmt: skip
+
+
+def test_a_near_alternative_the_data_still_need_the_effect_beside_is_no_rival():
+    """Kernel seed 674, a displacement cross-talk y1<-x1 at SNR 20 (the 150000 set's
+    k150060 pattern): at its greedy step a stiffness cross-coupling y1<-x1 of the equation
+    group came within AMBIGUOUS_DBIC, so the name was ambiguous.  Fitted in the coupling's
+    place, the cross-talk is still strongly needed (:func:`needed_in_place`): the coupling
+    cannot stand in, and the cross-talk is named.  ``in_place=False`` is the tool before."""
+    sc = draw_scenario(674, "kernel")
+    inj = Injection("sensing_cross_talk", MAGNITUDES["sensing_cross_talk"]["large"], "y1",
+                    options={"source": "x1", "sensor": "disp"})  # fmt: skip
+    inj = scale_to_snr(sc, inj, 20.0, 674, "kernel")[0]
+    rec = realistic_recording(sc, [inj], [], 674, "kernel")[0]
+    rep = build_report(diagnose(data_from_recording(rec)))
+    assert [(e["name"], e["channel"]) for e in rep["effects"]] == \
+        [("sensing_cross_talk", "disp:y1<-x1")], rep["conclusion"]  # fmt: skip
+    assert rep["data_used"]["needed_in_place_of"] == [
+        "sensing_cross_talk[disp:y1<-x1] (not stiffness_cross_coupling[y1<-x1])"]
+    before = build_report(diagnose(data_from_recording(rec), Settings(in_place=False)))
+    assert not before["effects"], before["conclusion"]
+    [amb] = before["ambiguous"]
+    assert [r["name"] for r in amb["rivals"]] == ["stiffness_cross_coupling"], amb["rivals"]
+    assert rep["settings"]["in_place"] and not before["settings"]["in_place"]

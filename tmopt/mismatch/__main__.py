@@ -31,6 +31,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--no-rejudge", action="store_true",
                    help="do not judge a weak name again under the alternative's noise model "
                         "(on by default, docs/mismatch.md 9.16)")  # fmt: skip
+    p.add_argument("--no-in-place", action="store_true",
+                   help="keep every near alternative as a rival, even one the data still need "
+                        "the effect beside (on by default, docs/mismatch.md 9.16)")  # fmt: skip
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--design-next", action="store_true",
                    help="also design the next excitation into --out (python -m tmopt.design)")
@@ -56,7 +59,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     settings = Settings(alpha=args.alpha, locate_alpha=args.locate_alpha,
                         max_effects=args.max_effects, joint=args.joint,
-                        rejudge=not args.no_rejudge)  # fmt: skip
+                        rejudge=not args.no_rejudge, in_place=not args.no_in_place)  # fmt: skip
     dg = diagnose(data_from_recording(rec), settings)
     rep = write_report(dg, args.out, plots=not args.no_plots)
     print(rep["conclusion"])

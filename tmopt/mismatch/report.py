@@ -104,10 +104,14 @@ def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
     # explains what this one does not: both are in the model, neither stands in for the
     # other (k110087: a cross-talk x1<-y1 and a gain of x2, both true, 5 apart at step 1)
     taken = set() if dg is None else {s.candidate.key for s, _ in dg.selected}
+    # an alternative the data still need the effect beside cannot stand in for it either
+    # (:func:`tmopt.mismatch.diagnose.needed_in_place`)
+    kept = set() if dg is None else dg.not_rivals
     out = [{"name": a.candidate.effect, "channel": a.candidate.channel, "delta_bic": a.dbic,
             **_feature_of(a.candidate)}
            for a in alts if a.candidate.effect != ev.candidate.effect
            and a.candidate.key not in taken
+           and (ev.candidate.key, a.candidate.key) not in kept
            and could_stand_in(a.candidate, ev.candidate)]  # fmt: skip
     if dg is None:
         return out
@@ -298,7 +302,7 @@ def _settings(dg: Diagnosis) -> dict:
     return {"family_alpha": dg.settings.alpha, "locate_alpha": dg.settings.locate_alpha,
             "max_effects": dg.settings.max_effects, "noise": dg.settings.noise,
             "joint": dg.settings.joint, "lowfreq": list(dg.settings.lowfreq),
-            "rejudge": dg.settings.rejudge}  # fmt: skip
+            "rejudge": dg.settings.rejudge, "in_place": dg.settings.in_place}  # fmt: skip
 
 
 def build_report(dg: Diagnosis) -> dict:
