@@ -820,7 +820,10 @@ def needed_in_place(data: Data, basis: np.ndarray, selected: list, settings: Set
     what it does (kernel 150060: a displacement cross-talk y1<-x1 of the kinematic group
     at dBIC 35.7, a stiffness cross-coupling y1<-x1 of the equation group at 32.7; the
     cross-talk given the coupling is still strong, the coupling given the cross-talk is not
-    needed; docs/mismatch.md 9.16).  Each check refits the model once; only near
+    needed; docs/mismatch.md 9.16).  Not when the effect is needed *more* beside the
+    alternative than alone (its dBIC up by more than ``AMBIGUOUS_DBIC``): then the
+    alternative's fit is what the effect undoes (a gain beside an accelerometer scale,
+    9.12 (c)), and nothing is said.  Each check refits the model once; only near
     alternatives are checked."""
     chosen = [ev for ev, _ in selected]
     taken = {ev.candidate.key for ev in chosen}
@@ -833,7 +836,11 @@ def needed_in_place(data: Data, basis: np.ndarray, selected: list, settings: Set
                     ev.candidate.group == "noise":  # fmt: skip
                 continue
             p, dbic = _given(data, basis, others + [alt, ev], len(others) + 1, settings, n_tests)
-            if p < settings.alpha and dbic >= cal.AMBIGUOUS_DBIC:
+            # more evidence beside the alternative than alone: the two are partners that
+            # undo each other, not substitutes, and the test says nothing (foreign 150010,
+            # clean: a gain of y2 at dBIC 8.3 needed at 7128 beside an accelerometer scale)
+            partners = dbic > ev.dbic + cal.AMBIGUOUS_DBIC
+            if p < settings.alpha and dbic >= cal.AMBIGUOUS_DBIC and not partners:
                 out.add((ev.candidate.key, c.key))
     if out:
         data.usage["needed_in_place_of"] = sorted(f"{e} (not {a})" for e, a in out)
