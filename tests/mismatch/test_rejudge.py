@@ -10,6 +10,8 @@ not excuse).  Development seeds (< 20000), both simulators' generator as in the 
 
 from __future__ import annotations
 
+import pytest
+
 from tmopt.mismatch.diagnose import (
     Settings,
     _Evaluations,
@@ -98,3 +100,9 @@ def test_a_near_alternative_the_data_still_need_the_effect_beside_is_no_rival():
     [amb] = before["ambiguous"]
     assert [r["name"] for r in amb["rivals"]] == ["stiffness_cross_coupling"], amb["rivals"]
     assert rep["settings"]["in_place"] and not before["settings"]["in_place"]
+
+
+@pytest.mark.parametrize("name", ["rejudge", "in_place", "joint", "generic"])
+def test_a_switch_that_is_not_a_bool_is_refused_in_one_line(name):
+    with pytest.raises(ValueError, match=f"^{name} must be True or False; got 'yes'$"):
+        Settings(**{name: "yes"})

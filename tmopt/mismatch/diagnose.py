@@ -101,6 +101,9 @@ class Settings:
                              f"{self.max_effects!r}")  # fmt: skip
         if self.noise not in ("coloured", "white"):
             raise ValueError(f"noise must be 'coloured' or 'white'; got {self.noise!r}")
+        for name in ("generic", "joint", "rejudge", "in_place"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"{name} must be True or False; got {getattr(self, name)!r}")
         if not set(self.lowfreq) <= set(cal.LOWFREQ_NULL) - {"shape"}:
             raise ValueError(f"lowfreq must name nulls among 'ramp', 'curvature'; got "
                              f"{self.lowfreq!r}")  # fmt: skip
