@@ -115,8 +115,12 @@ def test_a_near_alternative_the_selection_also_kept_is_no_rival():
     talk, gain = ev("sensing_cross_talk", "disp:x1<-y1", 312.8), ev("actuation_gain", "x1", 307.7)
     other = ev("actuation_delay", "x1", 309.0)  # shares x1: it could stand in
     dg = NS(selected=[(talk, [gain, other]), (gain, [])], features=[], misfits=[], weak=[],
-            beyond=[], saturated=[], locations_after=Locations())
+            beyond=[], saturated=[], locations_after=Locations(), not_rivals=set())
     assert [r["name"] for r in _rivals(talk, [gain, other], dg)] == ["actuation_delay"]
+    # one the data still need the effect beside (diagnose.needed_in_place) is none either
+    dg.not_rivals = {(talk.candidate.key, other.candidate.key)}
+    assert _rivals(talk, [gain, other], dg) == []
+    dg.not_rivals = set()
     assert [r["name"] for r in _rivals(talk, [gain, other])] == ["actuation_gain",
                                                                  "actuation_delay"]
 
@@ -142,7 +146,8 @@ def test_an_alternative_of_another_group_on_other_axes_is_no_rival():
     cubic = ev("cubic_stiffness", "x1", 60.5, "equation")
     force = ev("unexplained", "x1", 57.6, "equation")
     dg = NS(selected=[(scale, [cubic, force]), (cubic, [force])], features=[], misfits=[],
-            weak=[], beyond=[], saturated=[], locations_after=Locations())  # fmt: skip
+            weak=[], beyond=[], saturated=[], locations_after=Locations(),
+            not_rivals=set())  # fmt: skip
     assert _rivals(scale, [cubic, force], dg) == []
     assert [r["name"] for r in _rivals(cubic, [force], dg)] == ["unexplained"]
     gain_x2 = ev("actuation_gain", "x2", 60.0, "equation")  # other group, shared axis
