@@ -106,3 +106,28 @@ def test_a_near_alternative_the_data_still_need_the_effect_beside_is_no_rival():
 def test_a_switch_that_is_not_a_bool_is_refused_in_one_line(name):
     with pytest.raises(ValueError, match=f"^{name} must be True or False; got 'yes'$"):
         Settings(**{name: "yes"})
+
+
+@pytest.mark.parametrize(("given_dbic", "no_rival"), [(35.0, True), (4.0, False),
+                                                      (7128.0, False)])  # fmt: skip
+def test_needed_in_place_decides_on_strength_and_gives_no_verdict_on_partners(
+        monkeypatch, given_dbic, no_rival):  # fmt: skip
+    """The rule's decision on the effect's evidence with the alternative in its place
+    (here set by hand): strong (>= 6) and not above its own dBIC + 6 -- no rival; weak --
+    a rival; far above its own (foreign 150010: a gain at 8.3 "needed" at 7128 beside an
+    accelerometer scale, the two undoing each other) -- no verdict, a rival."""
+    from types import SimpleNamespace as NS
+
+    from tmopt.mismatch import diagnose as dgn
+
+    def ev(effect, channel, dbic, group="equation"):
+        return NS(candidate=NS(effect=effect, channel=channel, key=f"{effect}[{channel}]",
+                               group=group), dbic=dbic)  # fmt: skip
+
+    effect, alt = ev("actuation_gain", "y2", 35.7), ev("readout_scale", "acc:y2", 32.0)
+    monkeypatch.setattr(dgn, "_given", lambda *a, **k: (1e-6, given_dbic))
+    data = NS(usage={})
+    got = dgn.needed_in_place(data, None, [(effect, [alt])], Settings(), 90)
+    assert got == ({(effect.candidate.key, alt.candidate.key)} if no_rival else set())
+    assert dgn.needed_in_place(data, None, [(effect, [alt])], Settings(in_place=False),
+                               90) == set()  # fmt: skip

@@ -827,7 +827,9 @@ def needed_in_place(data: Data, basis: np.ndarray, selected: list, settings: Set
     alternative than alone (its dBIC up by more than ``AMBIGUOUS_DBIC``): then the
     alternative's fit is what the effect undoes (a gain beside an accelerometer scale,
     9.12 (c)), and nothing is said.  Each check refits the model once; only near
-    alternatives are checked."""
+    alternatives are checked.  Empty when ``settings.in_place`` is off."""
+    if not settings.in_place:
+        return set()
     chosen = [ev for ev, _ in selected]
     taken = {ev.candidate.key for ev in chosen}
     out = set()
@@ -937,7 +939,7 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
             if alternative:
                 from tmopt.mismatch import joint
 
-                out[-1]["glr_alt"] = joint.alt_glr(data, basis, state, cols, Settings())[0]
+                out[-1]["glr_alt"] = joint.alt_glr(data, basis, state, cols)[0]
     return out
 
 
@@ -1018,12 +1020,12 @@ def rejudged(data: Data, basis: np.ndarray, selected: list, settings: Settings,
 
 def weak_names(selected: list, eps: float = cal.MODEL_PRECISION,
                strong: float = cal.AMBIGUOUS_DBIC,
-               rejudged: set[str] = frozenset()) -> list[dict]:  # fmt: skip
+               lifted: set[str] = frozenset()) -> list[dict]:  # fmt: skip
     """Selected catalogue effects not to be named with confidence (issue 26):
 
     * ``"weak"``: ``delta_bic < strong`` -- "no effect" is within the ambiguity band
       (Kass & Raftery's "strong" evidence, the rule used between two names) -- unless its
-      key is in ``rejudged`` (strong under the alternative's noise model, :func:`rejudged`);
+      key is in ``lifted`` (strong under the alternative's noise model, :func:`rejudged`);
     * ``"remainder"``: ``glr < eps^2 glr_s`` for a stronger selected *searched* effect
       ``s`` (``profiled``: its form carries parameters searched on the residual -- a DAC
       step -- so an unseen simulator's version of it is matched only to ``eps``,
@@ -1041,7 +1043,7 @@ def weak_names(selected: list, eps: float = cal.MODEL_PRECISION,
         cand = ev.candidate
         if cand.effect == generic.GENERIC:
             continue
-        if ev.dbic < strong and cand.key not in rejudged:
+        if ev.dbic < strong and cand.key not in lifted:
             out.append({"key": cand.key, "channel": cand.channel, "kind": "weak", "of": None})
             continue
         for other, _ in selected:
@@ -1254,10 +1256,9 @@ def _diagnose_prepared(data: Data, basis: np.ndarray, settings: Settings,
         not_identifiable=identifiability(data, basis, before, settings, n_tests),
         settings=settings, steps=steps, verdict=verdict,
         misfits=shape_misfits(data, basis, state, selected),
-        weak=weak_names(selected, rejudged=rejudged(data, basis, selected, settings, n_tests)),
+        weak=weak_names(selected, lifted=rejudged(data, basis, selected, settings, n_tests)),
         beyond=beyond, saturated=saturations(data),
-        not_rivals=needed_in_place(data, basis, selected, settings, n_tests)
-        if settings.in_place else set(),
+        not_rivals=needed_in_place(data, basis, selected, settings, n_tests),
     )  # fmt: skip
 
 

@@ -165,7 +165,7 @@ def alt_statistics(data, basis, state, evals: list, settings, pairs: bool,
     out = []
     for members in sets:
         cols = [c for e in members for c in e.candidate.columns]
-        glr, n = alt_glr(data, basis, state, cols, settings)
+        glr, n = alt_glr(data, basis, state, cols)
         fams = {family(e.candidate.effect) for e in members}
         out.append(JointTest(
             evals=members, glr_null=float(sum(e.glr for e in members)),
@@ -176,17 +176,17 @@ def alt_statistics(data, basis, state, evals: list, settings, pairs: bool,
     return out
 
 
-def alt_glr(data, basis, state, cols: list, settings) -> tuple[float, int]:
+def alt_glr(data, basis, state, cols: list) -> tuple[float, int]:
     """GLR of the equation-group columns ``cols`` added to ``state``'s, both fits whitened
-    by the spectrum re-estimated from the residual of the fit *with* them (feasible GLS
-    as the selection's, :func:`tmopt.mismatch.diagnose._fit_eq`): ``(L, n)`` with ``n``
-    the whitened residual's size."""
+    by the spectrum re-estimated -- of ``state``'s kind -- from the residual of the fit
+    *with* them (feasible GLS as the selection's, :func:`tmopt.mismatch.diagnose._fit_eq`):
+    ``(L, n)`` with ``n`` the whitened residual's size."""
     from tmopt.mismatch.diagnose import _fit_eq, _Group
     from tmopt.mismatch.fit import equation_target, solve
 
     target = equation_target(data, basis)
-    kind = "smoothed" if settings.noise == "coloured" else "white"
-    _, noise1 = _fit_eq(target, state.eq_cols + cols, state.red, data.layout, data.fs, kind)
+    _, noise1 = _fit_eq(target, state.eq_cols + cols, state.red, data.layout, data.fs,
+                        state.eq_noise.kind)  # fmt: skip
     fit0 = solve(target, state.eq_cols, noise1.whiten)
     group = _Group(None, state.eq_cols, fit0, noise1.whiten)
     return group.glr(cols), group.n
@@ -263,7 +263,7 @@ def extend(data, basis, state, selected: list, settings, tests, n_tests: int,
             others = chosen[:i] + chosen[i + 1:]
             if id(chosen[i]) in added:
                 ok = retest(data, basis, others, chosen[i], settings,
-                             added[id(chosen[i])]).significant(settings.alpha)  # fmt: skip
+                            added[id(chosen[i])]).significant(settings.alpha)  # fmt: skip
             else:
                 ok = _still_needed(data, basis, chosen, i, settings, n_tests)
             if not ok:

@@ -63,4 +63,3 @@ class StiffnessDrift(Effect):
         a stiffness step passed as a ramp (benchmark 140000: k140129, k140131, docs/
         mismatch.md 9.16)."""
         return self.curvature_in_time(ctx, cand, ctx.data.x_eq[AXES.index(cand.channel)])
-
