@@ -34,6 +34,10 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--no-in-place", action="store_true",
                    help="keep every near alternative as a rival, even one the data still need "
                         "the effect beside (on by default, docs/mismatch.md 9.16)")  # fmt: skip
+    p.add_argument("--no-shape-search", action="store_true",
+                   help="check a drift's shape with Legendre P2 + P3 only, not also the "
+                        "searched step and relaxation on its axis (on by default, "
+                        "docs/mismatch.md 9.17)")  # fmt: skip
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--design-next", action="store_true",
                    help="also design the next excitation into --out (python -m tmopt.design)")
@@ -59,7 +63,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     settings = Settings(alpha=args.alpha, locate_alpha=args.locate_alpha,
                         max_effects=args.max_effects, joint=args.joint,
-                        rejudge=not args.no_rejudge, in_place=not args.no_in_place)  # fmt: skip
+                        rejudge=not args.no_rejudge, in_place=not args.no_in_place,
+                        shape_search=not args.no_shape_search)  # fmt: skip
     dg = diagnose(data_from_recording(rec), settings)
     rep = write_report(dg, args.out, plots=not args.no_plots)
     print(rep["conclusion"])

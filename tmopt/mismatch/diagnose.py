@@ -90,6 +90,10 @@ class Settings:
     # a near alternative is a rival only if the effect is not still strongly needed with
     # the alternative fitted in its place (:func:`needed_in_place`, docs 9.16)
     in_place: bool = True
+    # a drift's shape check also searches the step and relaxation (a stiffness drift's:
+    # the stiffness step) on its axis, beside Legendre P2 + P3 (:func:`shape_misfits`,
+    # docs 9.17): a relaxation late in the record passed P2 + P3 as a ramp
+    shape_search: bool = True
 
     def __post_init__(self) -> None:
         if not (0 < self.alpha < 1 and 0 < self.locate_alpha < 1):
@@ -101,7 +105,7 @@ class Settings:
                              f"{self.max_effects!r}")  # fmt: skip
         if self.noise not in ("coloured", "white"):
             raise ValueError(f"noise must be 'coloured' or 'white'; got {self.noise!r}")
-        for name in ("generic", "joint", "rejudge", "in_place"):
+        for name in ("generic", "joint", "rejudge", "in_place", "shape_search"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name} must be True or False; got {getattr(self, name)!r}")
         if not set(self.lowfreq) <= set(cal.LOWFREQ_NULL) - {"shape"}:
@@ -909,15 +913,20 @@ def _deterministic_instead(data, basis, state: State, evals: list[Evaluation],
 
 def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
                   alpha: float = cal.SHAPE_ALPHA, lowfreq: bool = False,
-                  alternative: bool = False) -> list[dict]:  # fmt: skip
-    """Selected catalogue effects whose shape the final residual contradicts: the
-    effect's :meth:`~tmopt.mismatch.effects.base.Effect.shape_check` columns, added to the
-    final model, are significant at ``alpha`` (GLR ~ chi^2, one test per effect; ``alpha``
-    = 1 lists every check, for calibration; ``lowfreq``: the GLR referred to the check's
-    null calibrated under the 1/f^2 background, :func:`lowfreq_glr` -- measured, not used
-    by :func:`diagnose`: it names a slow modulation a drift, docs/mismatch.md 9.11).
-    Each: ``{"key", "channel", "glr", "dof", "p_value"}`` (``glr``: the chi^2-equivalent
-    statistic); with ``alternative`` also ``"glr_alt"``, the check's GLR with the spectrum
+                  alternative: bool = False, search: bool = True) -> list[dict]:  # fmt: skip
+    """Selected catalogue effects whose shape the final residual contradicts, one test
+    per effect at ``alpha``: the effect's :meth:`~tmopt.mismatch.effects.base.Effect.
+    shape_check` columns added to the final model (GLR ~ chi^2) and, with ``search``, each
+    of its :meth:`~tmopt.mismatch.effects.base.Effect.shape_search` shapes (a searched
+    step or relaxation, p-value times its trials), Bonferroni over the checks.  ``alpha``
+    = 1 lists every check, for calibration; ``lowfreq``: the fixed check's GLR referred
+    to its null calibrated under the 1/f^2 background, :func:`lowfreq_glr` -- measured,
+    not used by :func:`diagnose`: it names a slow modulation a drift, docs/mismatch.md
+    9.11.  Each: ``{"key", "channel", "glr", "dof", "p_value", "shape", "checks"}``
+    (``glr``, ``dof``, ``shape``: the deciding check's chi^2-equivalent statistic, its
+    columns and what it is -- "a curvature", "a step at t = 812 s"; ``checks``: every
+    check's ``{"shape", "glr", "dof", "p_value"}``, p-values before Bonferroni); with
+    ``alternative`` also ``"glr_alt"``, the fixed check's GLR with the spectrum
     re-estimated under it (:func:`tmopt.mismatch.joint.alt_glr`; measured for
     calibration, docs/mismatch.md 9.16)."""
     ctx = Context(data, basis, state.eq_fit.residual, state.eq_noise)
@@ -932,15 +941,34 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
         lam = group.glr(cols)
         if lowfreq:
             lam = lowfreq_glr(lam, len(cols), "shape")
-        p = float(stats.chi2.sf(lam, len(cols)))
+        checks = [{"shape": "a curvature", "glr": lam, "dof": len(cols),
+                   "p_value": float(stats.chi2.sf(lam, len(cols)))}]  # fmt: skip
+        for rival in model.shape_search(ctx, cand) if search else []:
+            lam_r, dof_r = group.glr(rival.columns), len(rival.columns)
+            p_r = min(1.0, rival.trials * float(stats.chi2.sf(lam_r, dof_r)))
+            checks.append({"shape": _shape_words(rival), "glr": lam_r, "dof": dof_r,
+                           "p_value": p_r})  # fmt: skip
+        worst = min(checks, key=lambda c: c["p_value"])
+        p = min(1.0, len(checks) * worst["p_value"])
         if p < alpha:
-            out.append({"key": cand.key, "channel": cand.channel, "glr": lam,
-                        "dof": len(cols), "p_value": p})  # fmt: skip
+            out.append({"key": cand.key, "channel": cand.channel, "glr": worst["glr"],
+                        "dof": worst["dof"], "p_value": p, "shape": worst["shape"],
+                        "checks": checks})  # fmt: skip
             if alternative:
                 from tmopt.mismatch import joint
 
                 out[-1]["glr_alt"] = joint.alt_glr(data, basis, state, cols)[0]
     return out
+
+
+def _shape_words(rival: Candidate) -> str:
+    """A searched shape check's shape in words: "a step at t = 812 s", "a relaxation from
+    t = 2027 s (tau ~120 s)"."""
+    f = rival.fixed
+    where = f" at t = {f['t0_s']:.0f} s" if "t0_s" in f else ""
+    if "tau_s" in f:
+        where = f" from t = {f['t0_s']:.0f} s (tau ~{f['tau_s']:.0f} s)"
+    return f"a {f.get('feature', rival.params[0])}{where}"
 
 
 def lowfreq_glr(lam: float, dof: int, which: str) -> float:
@@ -1255,7 +1283,7 @@ def _diagnose_prepared(data: Data, basis: np.ndarray, settings: Settings,
         locations_after=_locate_state(data, basis, state, settings.locate_alpha),
         not_identifiable=identifiability(data, basis, before, settings, n_tests),
         settings=settings, steps=steps, verdict=verdict,
-        misfits=shape_misfits(data, basis, state, selected),
+        misfits=shape_misfits(data, basis, state, selected, search=settings.shape_search),
         weak=weak_names(selected, lifted=rejudged(data, basis, selected, settings, n_tests)),
         beyond=beyond, saturated=saturations(data),
         not_rivals=needed_in_place(data, basis, selected, settings, n_tests),

@@ -46,7 +46,7 @@ import numpy as np
 from tmopt.mismatch.effects.base import TMS, Candidate, Context
 from tmopt.mismatch.fit import AXES, Column, axis_column, kinematic_series, tone_part
 
-__all__ = ["GENERIC", "candidates", "N_ONSETS", "NONLINEAR_KINDS"]
+__all__ = ["GENERIC", "candidates", "shape_rivals", "N_ONSETS", "NONLINEAR_KINDS"]
 
 #: The unnamed features' label in candidates and reports.
 GENERIC = "unexplained"
@@ -65,18 +65,20 @@ def _stat(e: np.ndarray, t: np.ndarray) -> float:
     return float(np.sum(e * t)) ** 2 / energy if energy > 0 else 0.0
 
 
-def _onset_search(ctx: Context, shape, base=None) -> list[tuple[float, int, float]]:
-    """Best onset per axis of a one-column template ``shape(axis, t0)`` (series (N,)):
-    (statistic, axis, t0).  With :data:`FINE_ONSETS` and ``base`` (``base(axis)``: the
-    series the step multiplies, so that ``shape(a, t0) = base(a) H(t - t0)``) the onset is
-    then searched at every sample and between samples (:func:`_fine_onset`)."""
+def _onset_search(ctx: Context, shape, base=None,
+                  axes=range(4)) -> list[tuple[float, int, float]]:  # fmt: skip
+    """Best onset per axis (of ``axes``) of a one-column template ``shape(axis, t0)``
+    (series (N,)): (statistic, axis, t0).  With :data:`FINE_ONSETS` and ``base``
+    (``base(axis)``: the series the step multiplies, so that ``shape(a, t0) = base(a)
+    H(t - t0)``) the onset is then searched at every sample and between samples
+    (:func:`_fine_onset`)."""
     d = ctx.data
     e = ctx.eq_noise.whiten(ctx.eq_residual)
     t_lo, t_hi = d.time[0], d.time[-1]
     grid = t_lo + (t_hi - t_lo) * np.linspace(0.05, 0.95, N_ONSETS)
     step = grid[1] - grid[0]
     out = []
-    for a in range(4):
+    for a in axes:
         best = (-1.0, grid[0])
         energy = []
         for t0 in grid:
@@ -162,16 +164,18 @@ def _fine_onset(ctx: Context, e: np.ndarray, a: int, shape, base: np.ndarray,
 
 
 def _onset_candidates(ctx: Context, kind: str, shape, words: str,
-                      found=None) -> list[Candidate]:  # fmt: skip
-    """The best of an onset search of ``shape`` (``found``: its result, else searched)."""
+                      found=None, trials: float | None = None) -> list[Candidate]:  # fmt: skip
+    """The best of an onset search of ``shape`` (``found``: its result, else searched;
+    ``trials``: its onsets tried, by default every axis' :func:`_onset_trials`)."""
     if found is None:
         found = _onset_search(ctx, shape)
     lam, a, t0 = max(found)
     if lam <= 0:
         return []
+    trials = _onset_trials(ctx.data.n) if trials is None else trials
     col = Column(f"{GENERIC}:{kind}[{AXES[a]}]", axis_column(ctx.basis, a, shape(a, t0)))
     return [Candidate(GENERIC, AXES[a], "equation", [kind], ["-"], [col], None,
-                      trials=_onset_trials(ctx.data.n), fixed={"feature": kind, "t0_s": t0},
+                      trials=trials, fixed={"feature": kind, "t0_s": t0},
                       n_searched=1,
                       text=words.format(ch=AXES[a], where=TMS[AXES[a]], t0=t0))]  # fmt: skip
 
@@ -215,7 +219,8 @@ RELAX_LEADS = np.linspace(0.0, 1.5, 7)
 RELAX_AXES = 2
 
 
-def _relaxations(ctx: Context, found: list[tuple[float, int, float]]) -> list[Candidate]:
+def _relaxations(ctx: Context, found: list[tuple[float, int, float]],
+                 n_axes: int = 4) -> list[Candidate]:  # fmt: skip
     """A force that relaxes to a new level, ``(1 - exp(-(t - t0)/tau)) H(t - t0)`` (a
     thermal or charging relaxation; the step is its tau -> 0 limit): onset and tau searched
     around the best step onsets ``found`` (:func:`_onset_search`) of the ``RELAX_AXES``
@@ -240,13 +245,51 @@ def _relaxations(ctx: Context, found: list[tuple[float, int, float]]) -> list[Ca
         return []
     shape = -np.expm1(-np.maximum(t - t0, 0.0) / tau)
     col = Column(f"{GENERIC}:relaxation[{AXES[a]}]", axis_column(ctx.basis, a, shape))
-    trials = 4.0 * (N_ONSETS + N_REFINE) * len(RELAX_TAUS) * len(RELAX_LEADS)
+    trials = n_axes * (N_ONSETS + N_REFINE) * len(RELAX_TAUS) * len(RELAX_LEADS)
     return [Candidate(GENERIC, AXES[a], "equation", ["relaxation"], ["m s^-2"], [col], None,
                       trials=trials, n_searched=2,
                       fixed={"feature": "relaxation", "t0_s": t0, "tau_s": tau},
                       text=f"unexplained: the force on {AXES[a]} ({TMS[AXES[a]]}) relaxes to "
                            f"a new level from t = {t0:.1f} s with time constant ~{tau:.0f} s "
                            "(no catalogue effect is a lasting exponential change)")]  # fmt: skip
+
+
+def shape_rivals(ctx: Context, axis: str, carrier: np.ndarray | None = None) -> list[Candidate]:
+    """The searched shapes that a selected *linear* change in time on ``axis`` must not
+    need (:meth:`~tmopt.mismatch.effects.base.Effect.shape_check`'s searched half):
+    without ``carrier``, the best lasting step and relaxation of the force on that axis;
+    with ``carrier`` (N,), the regressor the change multiplies (``x_a`` for a stiffness),
+    the best step of ``carrier`` -- a stiffness step.  Their onsets only on the coarse
+    grid of that one axis (a check needs the shape's significance, not its onset to a
+    sample), so each carries its own grid as trials: :data:`N_ONSETS` + :data:`N_REFINE`
+    onsets, times the relaxation's taus and leads.
+
+    Why searched: Legendre P2 + P3 (the fixed half) see a step or a relaxation only
+    through its projection on two smooth shapes; a relaxation 60 % into the record, named
+    a drift (benchmark 150000: f150132, k150133, ``distinct`` 16.8 and 18.8), left P2 + P3
+    at p 0.02, while the relaxation itself beside the drift reached a GLR of 28."""
+    if ctx.eq_residual is None or ctx.eq_noise is None or ctx.data.n < 64:
+        return []
+    t, h = ctx.data.time, ctx.data.dt
+    a = AXES.index(axis)
+    one = N_ONSETS + N_REFINE
+    if carrier is None:
+        def shape(_a: int, t0: float) -> np.ndarray:
+            return _step_shape(t, h, t0)
+
+        found = _onset_search(ctx, shape, axes=[a])
+        return (_onset_candidates(ctx, "step", shape,
+                                  "unexplained: a lasting step of the force on {ch} "
+                                  "({where}) at t = {t0:.1f} s", found, one)
+                + _relaxations(ctx, found, 1))  # fmt: skip
+
+    def kstep(_a: int, t0: float) -> np.ndarray:
+        return carrier * _step_shape(t, h, t0)
+
+    return _onset_candidates(ctx, "stiffness step", kstep,
+                             "unexplained: the stiffness of {ch} ({where}) changes "
+                             "abruptly at t = {t0:.1f} s", _onset_search(ctx, kstep, axes=[a]),
+                             one)  # fmt: skip
 
 
 def _stiffness_steps(ctx: Context) -> list[Candidate]:

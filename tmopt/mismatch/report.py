@@ -129,7 +129,7 @@ def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
                 for f, _ in dg.features
                 if f.candidate.fixed.get("feature") in generic.NONLINEAR_KINDS
                 and _axes(f.candidate.channel) & mine]  # fmt: skip
-    out += [{"name": "shape misfit (its residual needs a curvature: "
+    out += [{"name": f"shape misfit (its residual needs {m.get('shape', 'a curvature')}: "
                      "not the effect's shape)", "channel": m["channel"], "delta_bic": None,
              "glr": m["glr"], "p_value": m["p_value"]}
             for m in dg.misfits if m["key"] == ev.candidate.key]  # fmt: skip
@@ -302,7 +302,8 @@ def _settings(dg: Diagnosis) -> dict:
     return {"family_alpha": dg.settings.alpha, "locate_alpha": dg.settings.locate_alpha,
             "max_effects": dg.settings.max_effects, "noise": dg.settings.noise,
             "joint": dg.settings.joint, "lowfreq": list(dg.settings.lowfreq),
-            "rejudge": dg.settings.rejudge, "in_place": dg.settings.in_place}  # fmt: skip
+            "rejudge": dg.settings.rejudge, "in_place": dg.settings.in_place,
+            "shape_search": dg.settings.shape_search}  # fmt: skip
 
 
 def build_report(dg: Diagnosis) -> dict:

@@ -340,6 +340,25 @@ class Effect:
         as a linear drift), and the name is reported ambiguous, the channel unexplained."""
         return []
 
+    def shape_search(self, ctx: Context, cand: Candidate) -> list[Candidate]:
+        """The shape check's searched half: shapes with a searched parameter (an onset)
+        that a selected ``cand`` must not need either, each a candidate carrying its
+        search as ``trials`` (empty: none).  Judged with :meth:`shape_check`'s columns
+        as one test (Bonferroni, :func:`tmopt.mismatch.diagnose.shape_misfits`)."""
+        return []
+
+    @staticmethod
+    def changes_in_time(ctx: Context, cand: Candidate,
+                        carrier: np.ndarray | None = None) -> list[Candidate]:  # fmt: skip
+        """The searched shape check of an effect that promises a *linear* change in time:
+        the best step and relaxation on ``cand``'s axis of ``carrier`` (N,; none: a
+        force) (:func:`tmopt.mismatch.generic.shape_rivals`).  A ramp beside them leaves
+        little (a step fits 3/4 of a centred ramp's energy, which the ramp then has); a
+        change that starts late in the record does not."""
+        from tmopt.mismatch import generic  # generic imports this module
+
+        return generic.shape_rivals(ctx, cand.channel, carrier)
+
     @staticmethod
     def curvature_in_time(ctx: Context, cand: Candidate,
                           carrier: np.ndarray | None = None) -> list[Column]:  # fmt: skip

@@ -62,3 +62,10 @@ class BiasDrift(Effect):
         part tells them apart -- when that part is below the noise, the data cannot, and
         the drift name stands)."""
         return self.curvature_in_time(ctx, cand)
+
+    def shape_search(self, ctx: Context, cand: Candidate) -> list[Candidate]:
+        """The best step and relaxation of the force on the drift's axis
+        (:meth:`~tmopt.mismatch.effects.base.Effect.changes_in_time`): a relaxation that
+        starts late passes P2 + P3 as a ramp (benchmark 150000: f150132, docs/mismatch.md
+        9.17)."""
+        return self.changes_in_time(ctx, cand)

@@ -63,3 +63,8 @@ class StiffnessDrift(Effect):
         a stiffness step passed as a ramp (benchmark 140000: k140129, k140131, docs/
         mismatch.md 9.16)."""
         return self.curvature_in_time(ctx, cand, ctx.data.x_eq[AXES.index(cand.channel)])
+
+    def shape_search(self, ctx: Context, cand: Candidate) -> list[Candidate]:
+        """The best stiffness step on the drift's axis
+        (:meth:`~tmopt.mismatch.effects.base.Effect.changes_in_time`)."""
+        return self.changes_in_time(ctx, cand, ctx.data.x_eq[AXES.index(cand.channel)])
