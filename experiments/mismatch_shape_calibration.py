@@ -40,8 +40,9 @@ EFFECTS = {"bias_drift": (33000, ("bias_modulation", "thermal_relaxation")),
            "stiffness_drift": (34000, ("stiffness_step",))}
 
 
-def jobs(n: int, effect: str = "bias_drift") -> list[dict]:
+def jobs(n: int, effect: str = "bias_drift", seed_base: int | None = None) -> list[dict]:
     base, power = EFFECTS[effect]
+    base = base if seed_base is None else seed_base
     out = []
     for i in range(n):
         for backend in ("kernel", "foreign"):
@@ -75,7 +76,7 @@ def run(job: dict) -> dict:
     row["shape_glr"] = drift[0]["glr"] if drift else None
     row["shape_glr_alt"] = drift[0]["glr_alt"] if drift else None
     # each check's own p-value before Bonferroni: the fixed P2 + P3 and the searched shapes
-    row["checks"] = drift[0]["checks"] if drift else None
+    row["checks"] = drift[0]["checks"] if drift else None  # with the in-place comparison
     row["fixed_p"] = drift[0]["checks"][0]["p_value"] if drift else None
     row["flagged"] = [m["key"] for m in dg.misfits]
     row["cpu_s"] = time.process_time() - t0
@@ -86,10 +87,18 @@ def main(argv=None) -> int:
     from mismatch_realistic import calibration_cli, streamed_rows
 
     a = calibration_cli(__doc__.splitlines()[0], 20, "experiments/out/mismatch_shape_calibration",
-                        argv, {"--effect": {"choices": tuple(EFFECTS), "default": "bias_drift"}})
+                        argv, {"--effect": {"choices": tuple(EFFECTS), "default": "bias_drift"},
+                               "--seed-base": {"type": int, "default": None,
+                                               "help": "first null seed (power: +500); "
+                                                       "default the effect's own"}})  # fmt: skip
     if a is None:
         return 2
-    rows = streamed_rows(Path(a.out) / "rows.jsonl", jobs(a.n, a.effect), run, a.jobs)
+    if a.seed_base is not None and not 20000 <= a.seed_base < 40000:
+        print(f"--seed-base must be in [20000, 40000) (calibration seeds, never a "
+              f"benchmark's); got {a.seed_base}", file=sys.stderr)  # fmt: skip
+        return 2
+    rows = streamed_rows(Path(a.out) / "rows.jsonl", jobs(a.n, a.effect, a.seed_base), run,
+                         a.jobs)  # fmt: skip
     from tmopt.mismatch.calibration import SHAPE_ALPHA
 
     for s in ("null", "power"):
