@@ -131,7 +131,7 @@ def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
                 and _axes(f.candidate.channel) & mine]  # fmt: skip
     out += [{"name": f"shape misfit (its residual needs {m.get('shape', 'a curvature')}: "
                      "not the effect's shape)", "channel": m["channel"], "delta_bic": None,
-             "glr": m["glr"], "p_value": m["p_value"]}
+             "glr": m["glr"], "p_value": m["p_value"], "checks": m.get("checks", [])}
             for m in dg.misfits if m["key"] == ev.candidate.key]  # fmt: skip
     for w in dg.weak:
         if w["key"] != ev.candidate.key:
