@@ -989,7 +989,7 @@ def _replaced_by(data: Data, basis: np.ndarray, selected: list, ev: Evaluation,
     own = group.glr(cand.columns)
     best = max((group.glr(r.columns) for r in EFFECTS[cand.effect].shape_search(ctx, cand)),
                default=0.0)  # fmt: skip
-    return {"replaced": best > own, "glr_effect": own, "glr_in_place": best}
+    return {"replaced": bool(best > own), "glr_effect": float(own), "glr_in_place": float(best)}
 
 
 def _shape_words(rival: Candidate) -> str:
