@@ -12,6 +12,7 @@ benchmark draw."""
 from __future__ import annotations
 
 import functools
+import json
 import sys
 from pathlib import Path
 
@@ -70,6 +71,7 @@ def test_a_relaxation_that_p2_p3_let_pass_as_a_ramp_is_not_named_a_drift():
     [rival] = [r for r in amb["rivals"]
                if r["name"].startswith(f"shape misfit (its residual needs {m['shape']}")]
     assert rival["checks"] == m["checks"]  # every check reaches the report
+    assert json.loads(json.dumps(rep))["ambiguous"]  # plain JSON, as write_report needs
 
 
 def test_a_kink_of_the_background_beside_a_true_drift_does_not_take_its_name(monkeypatch):
