@@ -62,9 +62,11 @@ def test_a_relaxation_that_p2_p3_let_pass_as_a_ramp_is_not_named_a_drift():
     assert not fixed_only, fixed_only
     [m] = [m for m in dg.misfits if m["key"] == key]
     assert m["shape"].startswith(("a step", "a relaxation")) and m["p_value"] < 0.01, m
-    searched = [c for c in m["checks"][1:] if c["p_value"] < 0.01]
-    assert searched and all(c["replaced"] and c["glr_in_place"] > c["glr_effect"] + c["margin"]
-                            for c in searched), m["checks"]  # fmt: skip
+    searched = m["checks"][1:]
+    assert any(c["p_value"] < 0.01 for c in searched), m["checks"]
+    assert any(c["replaced"] for c in searched), m["checks"]
+    assert all(c["glr_in_place"] > c["glr_effect"] + c["margin"]
+               for c in searched if c["replaced"]), m["checks"]  # fmt: skip
     rep = build_report(dg)
     assert not any(e["name"] == "bias_drift" for e in rep["effects"]), rep["conclusion"]
     [amb] = [a for a in rep["ambiguous"] if a["name"] == "bias_drift"]

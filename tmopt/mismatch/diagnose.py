@@ -919,8 +919,9 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
     per effect at ``alpha``: the effect's :meth:`~tmopt.mismatch.effects.base.Effect.
     shape_check` columns added to the final model (GLR ~ chi^2) and, with ``search``, each
     of its :meth:`~tmopt.mismatch.effects.base.Effect.shape_search` shapes (a searched
-    step or relaxation, p-value times its trials, counted only where such a shape fitted
-    *in the effect's place* explains more than the effect does, :func:`_replaced_by` --
+    step or relaxation, p-value times its trials, counted only where some such shape
+    fitted *in the effect's place* explains more than the effect does beyond its extra
+    parameters, :func:`_replaced_by` --
     beside a true drift the 1/f^2 background's own kinks are significant too, but none
     stands in for the ramp), Bonferroni over the checks.  ``alpha``
     = 1 lists every check, for calibration; ``lowfreq``: the fixed check's GLR referred
@@ -949,12 +950,16 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
                    "p_value": float(stats.chi2.sf(lam, len(cols)))}]  # fmt: skip
         rivals = model.shape_search(ctx, cand) if search else []
         in_place = _replaced_by(data, basis, selected, ev, settings) if rivals else {}
+        # two questions: is the residual beside the drift not linear (a searched shape
+        # significant), and does some non-linear shape do the drift's job better (any
+        # one in its place, beyond its margin)?  The second is the drift's, not a shape's
+        replaced = any(v["replaced"] for v in in_place.values())
         for rival in rivals:
             lam_r, dof_r = group.glr(rival.columns), len(rival.columns)
             p_r = min(1.0, rival.trials * float(stats.chi2.sf(lam_r, dof_r)))
             there = in_place.get(rival.fixed.get("feature"), {"replaced": False})
             checks.append({"shape": _shape_words(rival), "glr": lam_r, "dof": dof_r,
-                           "p_value": p_r if there["replaced"] else 1.0,
+                           "p_value": p_r if replaced else 1.0,
                            "p_searched": p_r, **there})  # fmt: skip
         worst = min(checks, key=lambda c: c["p_value"])
         p = min(1.0, len(checks) * worst["p_value"])
