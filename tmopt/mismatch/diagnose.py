@@ -930,7 +930,9 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
     9.11.  Each: ``{"key", "channel", "glr", "dof", "p_value", "shape", "checks"}``
     (``glr``, ``dof``, ``shape``: the deciding check's chi^2-equivalent statistic, its
     columns and what it is -- "a curvature", "a step at t = 812 s"; ``checks``: every
-    check's ``{"shape", "glr", "dof", "p_value"}``, p-values before Bonferroni); with
+    check's ``{"shape", "glr", "dof", "p_value"}``, p-values before Bonferroni -- a
+    searched one's 1 where no shape replaces the effect, its own in ``p_searched``, with
+    its in-place comparison, :func:`_replaced_by`); with
     ``alternative`` also ``"glr_alt"``, the fixed check's GLR with the spectrum
     re-estimated under it (:func:`tmopt.mismatch.joint.alt_glr`; measured for
     calibration, docs/mismatch.md 9.16)."""

@@ -335,7 +335,8 @@ class Effect:
         """Columns that a selected ``cand`` of this effect must *not* need (empty: no
         check).  The effect's name promises a shape (a drift is linear in time); when
         these columns, added to the final model, are significant at
-        :data:`tmopt.mismatch.calibration.SHAPE_ALPHA`, the residual on that channel has
+        :data:`tmopt.mismatch.calibration.SHAPE_ALPHA` (one test with
+        :meth:`shape_search`'s shapes, Bonferroni), the residual on that channel has
         the effect's kind of structure but not its shape (a slow bias modulation read
         as a linear drift), and the name is reported ambiguous, the channel unexplained."""
         return []
