@@ -932,7 +932,8 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
     columns and what it is -- "a curvature", "a step at t = 812 s"; ``checks``: every
     check's ``{"shape", "glr", "dof", "p_value"}``, p-values before Bonferroni -- a
     searched one's 1 where no shape replaces the effect, its own in ``p_searched``, with
-    its in-place comparison, :func:`_replaced_by`); with
+    its in-place comparison, :func:`_replaced_by`, where that was asked: when a searched
+    check could decide, or ``alpha`` = 1); with
     ``alternative`` also ``"glr_alt"``, the fixed check's GLR with the spectrum
     re-estimated under it (:func:`tmopt.mismatch.joint.alt_glr`; measured for
     calibration, docs/mismatch.md 9.16)."""
@@ -951,14 +952,20 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
         checks = [{"shape": "a curvature", "glr": lam, "dof": len(cols),
                    "p_value": float(stats.chi2.sf(lam, len(cols)))}]  # fmt: skip
         rivals = model.shape_search(ctx, cand) if search else []
-        in_place = _replaced_by(data, basis, selected, ev, settings) if rivals else {}
-        # two questions: is the residual beside the drift not linear (a searched shape
-        # significant), and does some non-linear shape do the drift's job better (any
-        # one in its place, beyond its margin)?  The second is the drift's, not a shape's
-        replaced = any(v["replaced"] for v in in_place.values())
+        searched = []
         for rival in rivals:
             lam_r, dof_r = group.glr(rival.columns), len(rival.columns)
             p_r = min(1.0, rival.trials * float(stats.chi2.sf(lam_r, dof_r)))
+            searched.append((rival, lam_r, dof_r, p_r))
+        # two questions: is the residual beside the drift not linear (a searched shape
+        # significant), and does some non-linear shape do the drift's job better (any
+        # one in its place, beyond its margin)?  The second is the drift's, not a shape's,
+        # and costs a refit: asked only where the first could decide (or all is listed)
+        n_checks = 1 + len(searched)
+        ask = searched and (alpha >= 1.0 or any(n_checks * p < alpha for *_, p in searched))
+        in_place = _replaced_by(data, basis, selected, ev, settings) if ask else {}
+        replaced = any(v["replaced"] for v in in_place.values())
+        for rival, lam_r, dof_r, p_r in searched:
             there = in_place.get(rival.fixed.get("feature"), {"replaced": False})
             checks.append({"shape": _shape_words(rival), "glr": lam_r, "dof": dof_r,
                            "p_value": p_r if replaced else 1.0,

@@ -195,18 +195,24 @@ def _onset_trials(n: int) -> float:
     return 4.0 * (N_ONSETS + N_REFINE + (n * N_FRACTIONS if FINE_ONSETS else 0))
 
 
-def _steps(ctx: Context) -> list[Candidate]:
-    """The best lasting force step, and the best relaxation around the steps found."""
+def _steps(ctx: Context, axis: int | None = None) -> list[Candidate]:
+    """The best lasting force step, and the best relaxation around the steps found: on
+    every axis, onsets to a sample; with ``axis``, on that one only and on the coarse
+    grid (:func:`shape_rivals`)."""
     t, h = ctx.data.time, ctx.data.dt
 
     def step(a: int, t0: float) -> np.ndarray:
         return _step_shape(t, h, t0)
 
-    found = _onset_search(ctx, step, lambda a: np.ones(t.size))
+    if axis is None:
+        found, trials = _onset_search(ctx, step, lambda a: np.ones(t.size)), None
+    else:
+        found, trials = _onset_search(ctx, step, axes=[axis]), N_ONSETS + N_REFINE
     return _onset_candidates(
         ctx, "step", step,
         "unexplained: a lasting step of the force on {ch} ({where}) at t = {t0:.1f} s "
-        "(no catalogue effect is a step)", found) + _relaxations(ctx, found)  # fmt: skip
+        "(no catalogue effect is a step)", found, trials) + \
+        _relaxations(ctx, found, 4 if axis is None else 1)  # fmt: skip
 
 
 #: Relaxation times searched [s] (thermal and charging relaxations of LPF: minutes to
@@ -254,12 +260,11 @@ def _relaxations(ctx: Context, found: list[tuple[float, int, float]],
                            "(no catalogue effect is a lasting exponential change)")]  # fmt: skip
 
 
-def shape_rivals(ctx: Context, axis: str, carrier: np.ndarray | None = None) -> list[Candidate]:
+def shape_rivals(ctx: Context, axis: str, stiffness: bool = False) -> list[Candidate]:
     """The searched shapes that a selected *linear* change in time on ``axis`` must not
-    need (:meth:`~tmopt.mismatch.effects.base.Effect.shape_check`'s searched half):
-    without ``carrier``, the best lasting step and relaxation of the force on that axis;
-    with ``carrier`` (N,), the regressor the change multiplies (``x_a`` for a stiffness),
-    the best step of ``carrier`` -- a stiffness step.  Their onsets only on the coarse
+    need (:meth:`~tmopt.mismatch.effects.base.Effect.shape_search`): the best lasting
+    step and relaxation of the force on that axis (:func:`_steps`), or with ``stiffness``
+    the best stiffness step (:func:`_stiffness_steps`).  Their onsets only on the coarse
     grid of that one axis (a check needs the shape's significance, not its onset to a
     sample), so each carries its own grid as trials: :data:`N_ONSETS` + :data:`N_REFINE`
     onsets, times the relaxation's taus and leads.
@@ -270,39 +275,26 @@ def shape_rivals(ctx: Context, axis: str, carrier: np.ndarray | None = None) -> 
     at p 0.02, while the relaxation itself beside the drift reached a GLR of 28."""
     if ctx.eq_residual is None or ctx.eq_noise is None or ctx.data.n < 64:
         return []
-    t, h = ctx.data.time, ctx.data.dt
     a = AXES.index(axis)
-    one = N_ONSETS + N_REFINE
-    if carrier is None:
-        def shape(_a: int, t0: float) -> np.ndarray:
-            return _step_shape(t, h, t0)
-
-        found = _onset_search(ctx, shape, axes=[a])
-        return (_onset_candidates(ctx, "step", shape,
-                                  "unexplained: a lasting step of the force on {ch} "
-                                  "({where}) at t = {t0:.1f} s", found, one)
-                + _relaxations(ctx, found, 1))  # fmt: skip
-
-    def kstep(_a: int, t0: float) -> np.ndarray:
-        return carrier * _step_shape(t, h, t0)
-
-    return _onset_candidates(ctx, "stiffness step", kstep,
-                             "unexplained: the stiffness of {ch} ({where}) changes "
-                             "abruptly at t = {t0:.1f} s", _onset_search(ctx, kstep, axes=[a]),
-                             one)  # fmt: skip
+    return _stiffness_steps(ctx, a) if stiffness else _steps(ctx, a)
 
 
-def _stiffness_steps(ctx: Context) -> list[Candidate]:
+def _stiffness_steps(ctx: Context, axis: int | None = None) -> list[Candidate]:
+    """The best stiffness step ``x_a H(t - t0)``: on every axis, onsets to a sample; with
+    ``axis``, on that one only and on the coarse grid (:func:`shape_rivals`)."""
     t, x, h = ctx.data.time, ctx.data.x_eq, ctx.data.dt
 
     def shape(a: int, t0: float) -> np.ndarray:
         return x[a] * _step_shape(t, h, t0)
 
+    if axis is None:
+        found, trials = _onset_search(ctx, shape, lambda a: x[a]), None
+    else:
+        found, trials = _onset_search(ctx, shape, axes=[axis]), N_ONSETS + N_REFINE
     return _onset_candidates(
         ctx, "stiffness step", shape,
         "unexplained: the stiffness of {ch} ({where}) changes abruptly at t = {t0:.1f} s "
-        "(the catalogue's stiffness drift is linear)",
-        _onset_search(ctx, shape, lambda a: x[a]))  # fmt: skip
+        "(the catalogue's stiffness drift is linear)", found, trials)  # fmt: skip
 
 
 def _curvatures(ctx: Context) -> list[Candidate]:

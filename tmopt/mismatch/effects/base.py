@@ -350,15 +350,15 @@ class Effect:
 
     @staticmethod
     def changes_in_time(ctx: Context, cand: Candidate,
-                        carrier: np.ndarray | None = None) -> list[Candidate]:  # fmt: skip
+                        stiffness: bool = False) -> list[Candidate]:  # fmt: skip
         """The searched shape check of an effect that promises a *linear* change in time:
-        the best step and relaxation on ``cand``'s axis of ``carrier`` (N,; none: a
-        force) (:func:`tmopt.mismatch.generic.shape_rivals`).  A ramp beside them leaves
-        little (a step fits 3/4 of a centred ramp's energy, which the ramp then has); a
-        change that starts late in the record does not."""
+        the best step and relaxation of the force on ``cand``'s axis, or with
+        ``stiffness`` the best stiffness step (:func:`tmopt.mismatch.generic.shape_rivals`).
+        A ramp beside them leaves little (a step fits 3/4 of a centred ramp's energy,
+        which the ramp then has); a change that starts late in the record does not."""
         from tmopt.mismatch import generic  # generic imports this module
 
-        return generic.shape_rivals(ctx, cand.channel, carrier)
+        return generic.shape_rivals(ctx, cand.channel, stiffness)
 
     @staticmethod
     def curvature_in_time(ctx: Context, cand: Candidate,

@@ -67,4 +67,4 @@ class StiffnessDrift(Effect):
     def shape_search(self, ctx: Context, cand: Candidate) -> list[Candidate]:
         """The best stiffness step on the drift's axis
         (:meth:`~tmopt.mismatch.effects.base.Effect.changes_in_time`)."""
-        return self.changes_in_time(ctx, cand, ctx.data.x_eq[AXES.index(cand.channel)])
+        return self.changes_in_time(ctx, cand, stiffness=True)
