@@ -38,6 +38,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="check a drift's shape with Legendre P2 + P3 only, not also the "
                         "searched step and relaxation on its axis (on by default, "
                         "docs/mismatch.md 9.17)")  # fmt: skip
+    p.add_argument("--no-shape-placements", action="store_true",
+                   help="check a drift's shape at its named channel only, not also with the "
+                        "drift moved to each near same-name alternative's channel (on by "
+                        "default, docs/mismatch.md 9.18)")  # fmt: skip
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--design-next", action="store_true",
                    help="also design the next excitation into --out (python -m tmopt.design)")
@@ -64,7 +68,8 @@ def main(argv: list[str] | None = None) -> int:
     settings = Settings(alpha=args.alpha, locate_alpha=args.locate_alpha,
                         max_effects=args.max_effects, joint=args.joint,
                         rejudge=not args.no_rejudge, in_place=not args.no_in_place,
-                        shape_search=not args.no_shape_search)  # fmt: skip
+                        shape_search=not args.no_shape_search,
+                        shape_placements=not args.no_shape_placements)  # fmt: skip
     dg = diagnose(data_from_recording(rec), settings)
     rep = write_report(dg, args.out, plots=not args.no_plots)
     print(rep["conclusion"])

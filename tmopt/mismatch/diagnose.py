@@ -94,6 +94,11 @@ class Settings:
     # the stiffness step) on its axis, beside Legendre P2 + P3 (:func:`shape_misfits`,
     # docs 9.17): a relaxation late in the record passed P2 + P3 as a ramp
     shape_search: bool = True
+    # a drift's fixed shape check is also made with the drift at each placement the data
+    # cannot tell from its own (the same effect on another axis within AMBIGUOUS_DBIC,
+    # :func:`shape_misfits`, docs 9.18): a slow curve on x2 named a drift on y1 passed
+    # the check on y1 (k160119: P2 + P3 p 0.007 on y1, 1e-10 with the drift on x2)
+    shape_placements: bool = True
 
     def __post_init__(self) -> None:
         if not (0 < self.alpha < 1 and 0 < self.locate_alpha < 1):
@@ -105,7 +110,8 @@ class Settings:
                              f"{self.max_effects!r}")  # fmt: skip
         if self.noise not in ("coloured", "white"):
             raise ValueError(f"noise must be 'coloured' or 'white'; got {self.noise!r}")
-        for name in ("generic", "joint", "rejudge", "in_place", "shape_search"):
+        for name in ("generic", "joint", "rejudge", "in_place", "shape_search",
+                     "shape_placements"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name} must be True or False; got {getattr(self, name)!r}")
         if not set(self.lowfreq) <= set(cal.LOWFREQ_NULL) - {"shape"}:
@@ -914,6 +920,7 @@ def _deterministic_instead(data, basis, state: State, evals: list[Evaluation],
 def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
                   alpha: float = cal.SHAPE_ALPHA, lowfreq: bool = False,
                   alternative: bool = False, search: bool = True,
+                  placements: bool = True,
                   settings: Settings | None = None) -> list[dict]:  # fmt: skip
     """Selected catalogue effects whose shape the final residual contradicts, one test
     per effect at ``alpha``: the effect's :meth:`~tmopt.mismatch.effects.base.Effect.
@@ -923,7 +930,11 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
     fitted *in the effect's place* explains more than the effect does beyond its extra
     parameters, :func:`_replaced_by` --
     beside a true drift the 1/f^2 background's own kinks are significant too, but none
-    stands in for the ramp), Bonferroni over the checks.  ``alpha``
+    stands in for the ramp), and with ``placements`` the fixed check made with the effect
+    moved to each of its :func:`placements` (the model refitted there,
+    :func:`_placed_check`; a check's ``placed_at`` names the channel), Bonferroni over
+    the checks.  A misfit's ``channel`` is where its deciding check placed the effect.
+    ``alpha``
     = 1 lists every check, for calibration; ``lowfreq``: the fixed check's GLR referred
     to its null calibrated under the 1/f^2 background, :func:`lowfreq_glr` -- measured,
     not used by :func:`diagnose`: it names a slow modulation a drift, docs/mismatch.md
@@ -939,8 +950,9 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
     calibration, docs/mismatch.md 9.16)."""
     ctx = Context(data, basis, state.eq_fit.residual, state.eq_noise)
     group = _Group(None, state.eq_cols, state.eq_fit, state.eq_noise.whiten)
+    taken = {e.candidate.key for e, _ in selected}
     out = []
-    for ev, _ in selected:
+    for ev, alts in selected:
         cand = ev.candidate
         model = EFFECTS.get(cand.effect)
         cols = model.shape_check(ctx, cand) if model is not None else []
@@ -970,10 +982,14 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
             checks.append({"shape": _shape_words(rival), "glr": lam_r, "dof": dof_r,
                            "p_value": p_r if replaced else 1.0,
                            "p_searched": p_r, **there})  # fmt: skip
+        if placements:
+            checks += [_placed_check(data, basis, selected, ev, a, settings, lowfreq)
+                       for a in _placements(ev, alts, taken)]  # fmt: skip
         worst = min(checks, key=lambda c: c["p_value"])
         p = min(1.0, len(checks) * worst["p_value"])
         if p < alpha or alpha >= 1.0:  # alpha 1: every check listed, p = 1 too
-            out.append({"key": cand.key, "channel": cand.channel, "glr": worst["glr"],
+            out.append({"key": cand.key, "channel": worst.get("placed_at", cand.channel),
+                        "glr": worst["glr"],
                         "dof": worst["dof"], "p_value": p, "shape": worst["shape"],
                         "checks": checks})  # fmt: skip
             if alternative:
@@ -981,6 +997,38 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
 
                 out[-1]["glr_alt"] = joint.alt_glr(data, basis, state, cols)[0]
     return out
+
+
+def _placements(ev: Evaluation, alts: list[Evaluation], taken: set[str]) -> list[Evaluation]:
+    """Where else the data could have put a shape-checked effect: the same effect on
+    another channel of its group among its near alternatives (within AMBIGUOUS_DBIC when
+    it was chosen), not itself selected (``taken``: the selected keys).  In the equation
+    group the f_B-free rows mix every axis, so a bias drift on y1 and one on x2 can fit
+    one slow change within a BIC unit (k160119: 31.0 and 29.9)."""
+    return [a for a in alts if a.candidate.effect == ev.candidate.effect
+            and a.candidate.group == ev.candidate.group
+            and a.candidate.key not in taken]  # fmt: skip
+
+
+def _placed_check(data: Data, basis: np.ndarray, selected: list, ev: Evaluation,
+                  at: Evaluation, settings: Settings | None, lowfreq: bool) -> dict:
+    """The effect's fixed shape check with the effect placed at ``at`` (one of its
+    :func:`placements`): every other selected effect kept, the model refitted with
+    ``at`` in the effect's place, the shape's columns at ``at``'s channel added to it.
+    Why: a check at the named channel alone passes a curve that a drift elsewhere
+    cannot fit as a line -- the curvature lives where the slow change is, and the
+    name's channel is a choice the data barely made."""
+    settings = Settings() if settings is None else settings
+    others = [e for e, _ in selected if e is not ev]
+    st = _rebuild(data, basis, others + [at], settings)
+    ctx = Context(data, basis, st.eq_fit.residual, st.eq_noise)
+    cols = EFFECTS[at.candidate.effect].shape_check(ctx, at.candidate)
+    lam = float(_Group(None, st.eq_cols, st.eq_fit, st.eq_noise.whiten).glr(cols))
+    if lowfreq:
+        lam = lowfreq_glr(lam, len(cols), "shape")
+    return {"shape": f"a curvature (with the {at.candidate.effect} on {at.candidate.channel})",
+            "glr": lam, "dof": len(cols), "p_value": float(stats.chi2.sf(lam, len(cols))),
+            "placed_at": at.candidate.channel}  # fmt: skip
 
 
 def _replaced_by(data: Data, basis: np.ndarray, selected: list, ev: Evaluation,
@@ -1340,6 +1388,7 @@ def _diagnose_prepared(data: Data, basis: np.ndarray, settings: Settings,
         not_identifiable=identifiability(data, basis, before, settings, n_tests),
         settings=settings, steps=steps, verdict=verdict,
         misfits=shape_misfits(data, basis, state, selected, search=settings.shape_search,
+                              placements=settings.shape_placements,
                               settings=settings),  # fmt: skip
         weak=weak_names(selected, lifted=rejudged(data, basis, selected, settings, n_tests)),
         beyond=beyond, saturated=saturations(data),

@@ -184,6 +184,11 @@ def _unexplained_at(dg: Diagnosis, rep: dict) -> dict:
         if any(r["name"] not in _NEEDS for r in a["rivals"]) and \
                 a["channel"] not in loc["channels"]:  # fmt: skip
             loc["channels"].append(a["channel"])
+        # a misfit seen with the effect at another placement (a drift on y1 whose curve
+        # lives on x2, diagnose._placed_check): there too
+        for r in a["rivals"]:
+            if r["name"].startswith("shape misfit") and r["channel"] not in loc["channels"]:
+                loc["channels"].append(r["channel"])
     # an explanation beyond physics, taken out: its residual channel (the axis's force
     # equation, or the axis's readout for a kinematic one) is unexplained
     for s in dg.saturated:  # a measured channel at a rail: its axis
@@ -303,7 +308,8 @@ def _settings(dg: Diagnosis) -> dict:
             "max_effects": dg.settings.max_effects, "noise": dg.settings.noise,
             "joint": dg.settings.joint, "lowfreq": list(dg.settings.lowfreq),
             "rejudge": dg.settings.rejudge, "in_place": dg.settings.in_place,
-            "shape_search": dg.settings.shape_search}  # fmt: skip
+            "shape_search": dg.settings.shape_search,
+            "shape_placements": dg.settings.shape_placements}  # fmt: skip
 
 
 def build_report(dg: Diagnosis) -> dict:
