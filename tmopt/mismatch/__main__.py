@@ -42,6 +42,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="check a drift's shape at its named channel only, not also with the "
                         "drift moved to each near same-name alternative's channel (on by "
                         "default, docs/mismatch.md 9.18)")  # fmt: skip
+    p.add_argument("--no-pairs", action="store_true",
+                   help="do not test candidates in pairs where no single one is significant "
+                        "(on by default, docs/mismatch.md 9.18)")  # fmt: skip
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--design-next", action="store_true",
                    help="also design the next excitation into --out (python -m tmopt.design)")
@@ -69,7 +72,8 @@ def main(argv: list[str] | None = None) -> int:
                         max_effects=args.max_effects, joint=args.joint,
                         rejudge=not args.no_rejudge, in_place=not args.no_in_place,
                         shape_search=not args.no_shape_search,
-                        shape_placements=not args.no_shape_placements)  # fmt: skip
+                        shape_placements=not args.no_shape_placements,
+                        pairs=not args.no_pairs)  # fmt: skip
     dg = diagnose(data_from_recording(rec), settings)
     rep = write_report(dg, args.out, plots=not args.no_plots)
     print(rep["conclusion"])

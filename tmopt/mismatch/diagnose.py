@@ -99,6 +99,10 @@ class Settings:
     # :func:`shape_misfits`, docs 9.18): a slow curve on x2 named a drift on y1 passed
     # the check on y1 (k160119: P2 + P3 p 0.007 on y1, 1e-10 with the drift on x2)
     shape_placements: bool = True
+    # where no single candidate is significant, test the step's candidates in pairs
+    # (:mod:`tmopt.mismatch.pairs`, docs 9.18): a bias drift and a stiffness drift on one
+    # axis hid each other (f160106: GLR 9.4 and 4.3 alone, 42.8 together)
+    pairs: bool = True
 
     def __post_init__(self) -> None:
         if not (0 < self.alpha < 1 and 0 < self.locate_alpha < 1):
@@ -111,7 +115,7 @@ class Settings:
         if self.noise not in ("coloured", "white"):
             raise ValueError(f"noise must be 'coloured' or 'white'; got {self.noise!r}")
         for name in ("generic", "joint", "rejudge", "in_place", "shape_search",
-                     "shape_placements"):
+                     "shape_placements", "pairs"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name} must be True or False; got {getattr(self, name)!r}")
         if not set(self.lowfreq) <= set(cal.LOWFREQ_NULL) - {"shape"}:
@@ -363,6 +367,11 @@ class _Group:
 
     def glr(self, cols: list[Column]) -> float:
         xp = self.perp(cols)
+        # unit columns: lstsq's cutoff is relative to the largest singular value, so two
+        # columns in different units (a cubic's x^3 beside a coupling's x) lost the small
+        # one (stop 42: a pair's GLR 0.004 where the fit of both gives 2.1)
+        norm = np.linalg.norm(xp, axis=0)
+        xp = xp / np.where(norm > 0, norm, 1.0)
         coef, *_ = np.linalg.lstsq(xp, self.r0, rcond=None)
         drop = float(self.r0 @ (xp @ coef))
         rss1 = max(self.rss0 - drop, 1e-300)
@@ -1442,6 +1451,7 @@ def _select(data: Data, basis: np.ndarray, before: State, settings: Settings,
     state = before
     selected, steps = [], []
     exclude: set[str] = set(banned)
+    paired = 0  # pairs added by the pair step (tmopt.mismatch.pairs)
     # glitch pieces of one event count once; at most twice max_effects selections in all
     while len(events(selected)) < settings.max_effects and \
             len(selected) < 2 * settings.max_effects:  # fmt: skip
@@ -1449,7 +1459,16 @@ def _select(data: Data, basis: np.ndarray, before: State, settings: Settings,
         steps.append(evals)
         sig = _significant(evals, settings.alpha)
         if not sig:
-            break
+            found = _pair_step(data, basis, state, evals, settings, len(steps[0]), paired,
+                               settings.max_effects - len(events(selected)))  # fmt: skip
+            if found is None:
+                break
+            paired += 1
+            for ev, alts in found:
+                selected.append((ev, alts))
+                exclude.add(ev.candidate.key)
+                state = _add(data, basis, state, ev, settings)
+            continue
         best = max(sig, key=lambda e: e.dbic)
         if best.candidate.group == "noise":
             alt = _deterministic_instead(data, basis, state, evals, settings, exclude,
@@ -1472,6 +1491,30 @@ def _select(data: Data, basis: np.ndarray, before: State, settings: Settings,
         selected, state = joint.extend(data, basis, state, selected, settings, tests, n_tests,
                                        banned)  # fmt: skip
     return selected, steps, state, n_tests
+
+
+def _pair_step(data: Data, basis: np.ndarray, state: State, evals: list[Evaluation],
+               settings: Settings, n_tests: int, paired: int, room: int):  # fmt: skip
+    """Where no single candidate is significant: the best significant pair of the step's
+    candidates, tested together (:func:`tmopt.mismatch.pairs.best_pair`; a bias drift and
+    a stiffness drift hiding each other, docs 9.18), or None (also when
+    ``Settings.pairs`` is off, :data:`~tmopt.mismatch.pairs.MAX_PAIRS` were added, or
+    ``room``, the effects ``max_effects`` still allows, is below two).
+    Said in the report's notes."""
+    from tmopt.mismatch import pairs
+
+    if not settings.pairs or paired >= pairs.MAX_PAIRS or room < 2:
+        return None
+    found = pairs.best_pair(residual_groups(data, state)["equation"], evals,
+                            settings.alpha, n_tests)  # fmt: skip
+    if found is not None:
+        (a, _), (b, _) = found
+        note = (f"pair search: {a.candidate.key} and {b.candidate.key} found together "
+                f"(each beside the other: statistic {a.glr:.1f} and {b.glr:.1f}); neither "
+                "was significant alone")  # fmt: skip
+        if note not in data.notes:
+            data.notes.append(note)
+    return found
 
 
 # ------------------------------------------------------------------------ summaries

@@ -309,7 +309,8 @@ def _settings(dg: Diagnosis) -> dict:
             "joint": dg.settings.joint, "lowfreq": list(dg.settings.lowfreq),
             "rejudge": dg.settings.rejudge, "in_place": dg.settings.in_place,
             "shape_search": dg.settings.shape_search,
-            "shape_placements": dg.settings.shape_placements}  # fmt: skip
+            "shape_placements": dg.settings.shape_placements,
+            "pairs": dg.settings.pairs}  # fmt: skip
 
 
 def build_report(dg: Diagnosis) -> dict:
