@@ -12,6 +12,10 @@ chi^2(1), and the diagnosis' false alarms with the rule on and off.
 
 Run: ``python experiments/mismatch_open_source_null.py --seed-base 17200 --n 32 --jobs 2``
 (seeds: the realistic set's clean cases, ``base + 0 .. n-1`` per backend).
+
+``--excited`` asks the same of an *excited* source axis (stop 42, ``EXCITED_SOURCE_OLS``:
+the plain regressor instead of its tone part): the rule switched is that one, the
+statistics are those of the cross-axis candidates whose source carries tones.
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 
-def one(args: tuple[str, int, int]) -> dict:
+def one(args: tuple[str, int, int, bool]) -> dict:
     from mismatch_realistic import build, cases
 
     import tmopt.mismatch.effects.base as base
@@ -34,13 +38,14 @@ def one(args: tuple[str, int, int]) -> dict:
     from tmopt.mismatch.fit import data_from_recording
     from tmopt.mismatch.realistic import realistic_recording
 
-    backend, seed, seed_base = args
+    backend, seed, seed_base, excited = args
+    rule = "EXCITED_SOURCE_OLS" if excited else "UNEXCITED_SOURCE_OLS"
     case = next(c for c in cases(backend, seed_base, False) if c["seed"] == seed)
     sc, effects, ooc, _ = build(case)
     rec, _ = realistic_recording(sc, effects, ooc, seed, backend)
-    out = {"backend": backend, "seed": seed}
+    out = {"backend": backend, "seed": seed, "rule": rule}
     for flag in (False, True):
-        base.UNEXCITED_SOURCE_OLS = flag
+        setattr(base, rule, flag)
         dg = diagnose(data_from_recording(rec))
         out[f"found_{int(flag)}"] = [s[0].candidate.key for s in dg.selected]
         out[f"unexplained_{int(flag)}"] = bool(dg.unexplained)
@@ -50,8 +55,8 @@ def one(args: tuple[str, int, int]) -> dict:
             out["unexcited"] = open_axes
             out["stats"] = [(e.candidate.key, e.glr) for e in dg.steps[0]
                             if e.candidate.effect == "sensing_cross_talk"
-                            and _source(e.candidate.channel) in open_axes]  # fmt: skip
-    base.UNEXCITED_SOURCE_OLS = True
+                            and (_source(e.candidate.channel) in open_axes) != excited]  # fmt: skip
+    setattr(base, rule, True)
     return out
 
 
@@ -69,10 +74,13 @@ def main() -> None:
     ap.add_argument("--n", type=int, default=32)
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--out", default="experiments/out/mismatch_open_source_null.jsonl")
+    ap.add_argument("--excited", action="store_true",
+                    help="switch and measure the excited-source rule (EXCITED_SOURCE_OLS)")
     a = ap.parse_args()
     if not 1 <= a.n <= 32:
         sys.exit(f"--n must be in [1, 32] (the clean cases of one realistic set); got {a.n}")
-    work = [(b, a.seed_base + i, a.seed_base) for b in ("kernel", "foreign") for i in range(a.n)]
+    work = [(b, a.seed_base + i, a.seed_base, a.excited) for b in ("kernel", "foreign")
+            for i in range(a.n)]  # fmt: skip
     Path(a.out).parent.mkdir(parents=True, exist_ok=True)
     rows = []
     with ProcessPoolExecutor(a.jobs) as ex, open(a.out, "w") as fh:
@@ -92,7 +100,8 @@ def main() -> None:
             continue
         ks = stats.kstest(g, stats.chi2(1).cdf)
         tail = {q: sum(x > stats.chi2.isf(q, 1) for x in g) for q in (0.05, 0.01, 0.001)}
-        print(f"{kind}: {len(g)} unexcited-source statistics; KS vs chi2(1) p = {ks.pvalue:.3g}; "
+        which = "excited" if a.excited else "unexcited"
+        print(f"{kind}: {len(g)} {which}-source statistics; KS vs chi2(1) p = {ks.pvalue:.3g}; "
               + ", ".join(f"> {q:g} level: {n} (expected {q * len(g):.1f})"
                           for q, n in tail.items())
               + f"; max {max(g):.3g}")  # fmt: skip

@@ -47,13 +47,19 @@ def clean_context():
     return Context(data, basis, state.eq_fit.residual, state.eq_noise)
 
 
-def test_only_a_term_from_another_unexcited_axis_drops_its_instrument(clean_context):
+def test_only_a_term_of_the_own_axis_keeps_its_instrument(clean_context, monkeypatch):
+    """A term from another axis, unexcited (9.12) or excited (stop 42, 9.18 (c):
+    ``EXCITED_SOURCE_OLS``), is its own instrument; the own axis keeps its tone part."""
     d = clean_context.data
     assert d.tones(0) and d.tones(1) and not d.tones(2) and not d.tones(3)  # kernel: no y
     cols = {c.key: c.columns[0] for c in SensingCrossTalk().candidates(clean_context)}
     assert cols["sensing_cross_talk[disp:x1<-y1]"].instrument is None
+    assert cols["sensing_cross_talk[disp:y1<-x1]"].instrument is None  # x1 is excited
+    monkeypatch.setattr(base, "EXCITED_SOURCE_OLS", False)  # the rule before stop 42
+    cols = {c.key: c.columns[0] for c in SensingCrossTalk().candidates(clean_context)}
     excited = cols["sensing_cross_talk[disp:y1<-x1]"].instrument
     assert excited is not None and np.any(excited)
+    assert cols["sensing_cross_talk[disp:x1<-y1]"].instrument is None
     for c in ReadoutScale().candidates(clean_context):  # own axis: the loop's noise, IV kept
         for col in c.columns + ([c.twin] if c.twin is not None else []):
             if col.row is not None and col.tones == ():
