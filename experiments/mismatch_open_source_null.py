@@ -49,13 +49,14 @@ def one(args: tuple[str, int, int, bool]) -> dict:
         dg = diagnose(data_from_recording(rec))
         out[f"found_{int(flag)}"] = [s[0].candidate.key for s in dg.selected]
         out[f"unexplained_{int(flag)}"] = bool(dg.unexplained)
-        if flag:
-            d = dg.data
-            open_axes = [i for i in range(4) if not d.tones(i)]
-            out["unexcited"] = open_axes
-            out["stats"] = [(e.candidate.key, e.glr) for e in dg.steps[0]
-                            if e.candidate.effect == "sensing_cross_talk"
-                            and (_source(e.candidate.channel) in open_axes) != excited]  # fmt: skip
+        d = dg.data
+        open_axes = [i for i in range(4) if not d.tones(i)]
+        out["unexcited"] = open_axes
+        # the rule's candidates' statistics, with it ("stats") and without ("stats_off")
+        out["stats" if flag else "stats_off"] = [
+            (e.candidate.key, e.glr) for e in dg.steps[0]
+            if e.candidate.effect == "sensing_cross_talk"
+            and (_source(e.candidate.channel) in open_axes) != excited]  # fmt: skip
     setattr(base, rule, True)
     return out
 
@@ -67,7 +68,6 @@ def _source(channel: str) -> int:
 
 
 def main() -> None:
-    from scipy import stats
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seed-base", type=int, default=17200)
@@ -91,24 +91,36 @@ def main() -> None:
             print(f"[{i}/{len(work)}] {r['backend']} {r['seed']} unexcited {r['unexcited']} "
                   f"off {r['found_0']} {r['unexplained_0']} on {r['found_1']} "
                   f"{r['unexplained_1']}", flush=True)  # fmt: skip
+    for label, field in (("rule on", "stats"), ("rule off", "stats_off")):
+        print(label + ":")
+        _tails(rows, field, a.excited)
+    _false_alarms(rows)
+
+
+def _tails(rows: list[dict], field: str, excited: bool) -> None:
+    from scipy import stats
+
     glr = {"disp": [], "acc": []}
     for r in rows:
-        for key, g in r["stats"]:
+        for key, g in r[field]:
             glr["disp" if "[disp:" in key else "acc"].append(g)
     for kind, g in glr.items():
         if not g:
             continue
         ks = stats.kstest(g, stats.chi2(1).cdf)
         tail = {q: sum(x > stats.chi2.isf(q, 1) for x in g) for q in (0.05, 0.01, 0.001)}
-        which = "excited" if a.excited else "unexcited"
+        which = "excited" if excited else "unexcited"
         print(f"{kind}: {len(g)} {which}-source statistics; KS vs chi2(1) p = {ks.pvalue:.3g}; "
               + ", ".join(f"> {q:g} level: {n} (expected {q * len(g):.1f})"
                           for q, n in tail.items())
               + f"; max {max(g):.3g}")  # fmt: skip
+    print("mean statistic", {k: (sum(v) / len(v) if v else math.nan) for k, v in glr.items()})
+
+
+def _false_alarms(rows: list[dict]) -> None:
     for flag in (0, 1):
         fa = sum(bool(r[f"found_{flag}"]) or r[f"unexplained_{flag}"] for r in rows)
         print(f"rule {'on ' if flag else 'off'}: false alarms {fa}/{len(rows)}")
-    print("mean statistic", {k: (sum(v) / len(v) if v else math.nan) for k, v in glr.items()})
 
 
 if __name__ == "__main__":
