@@ -14,8 +14,6 @@ import functools
 import sys
 from pathlib import Path
 
-import pytest
-
 from tmopt.mismatch import diagnose as dgn
 from tmopt.mismatch.report import build_report
 
@@ -69,19 +67,3 @@ def test_a_true_drift_checked_at_its_other_placement_keeps_its_name():
     assert [x.get("placed_at") for x in c["checks"]] == [None, None, None, "y1"]
     assert c["checks"][-1]["p_value"] > 0.5
     assert [e["name"] for e in build_report(dg)["effects"]] == ["bias_drift"]
-
-
-def test_placements_share_the_curvature_slot_and_leave_the_searched_ones_theirs():
-    """Kernel 170132's checks (a relaxation whose step beside the drift decides at p 0.0026,
-    three slots: 0.0077 < 0.01): a placement of the curvature (p 0.3) must not push the
-    step over the level, as a fourth slot would (0.0103); the placements' own shares come
-    out of the curvature's slot (k160119: 2 x 1.3e-10, then x3)."""
-    curv, step, relax = ({"p_value": 0.0158}, {"p_value": 0.0026}, {"p_value": 0.052})
-    worst, p = dgn._bonferroni([curv, step, relax], [{"p_value": 0.3, "placed_at": "y2"}])
-    assert worst is step and p == pytest.approx(3 * 0.0026)
-    placed = {"p_value": 1.3e-10, "placed_at": "x2"}
-    worst, p = dgn._bonferroni([{"p_value": 0.007}, {"p_value": 1.0}, {"p_value": 1.0}],
-                               [placed])  # fmt: skip
-    assert worst is placed and p == pytest.approx(3 * 2 * 1.3e-10)
-    worst, p = dgn._bonferroni([curv, step, relax], [])  # no placement: as before
-    assert worst is step and p == pytest.approx(3 * 0.0026)
