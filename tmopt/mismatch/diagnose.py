@@ -940,10 +940,9 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
     parameters, :func:`_replaced_by` --
     beside a true drift the 1/f^2 background's own kinks are significant too, but none
     stands in for the ramp), and with ``placements`` the fixed check made with the effect
-    moved to each of its :func:`_placements` (the model refitted there,
+    moved to each of its :func:`placements` (the model refitted there,
     :func:`_placed_check`; a check's ``placed_at`` names the channel), Bonferroni over
-    the checks' slots (:func:`_bonferroni`: the curvature's placements share one).  A
-    misfit's ``channel`` is where its deciding check placed the effect.
+    the checks.  A misfit's ``channel`` is where its deciding check placed the effect.
     ``alpha``
     = 1 lists every check, for calibration; ``lowfreq``: the fixed check's GLR referred
     to its null calibrated under the 1/f^2 background, :func:`lowfreq_glr` -- measured,
@@ -992,10 +991,11 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
             checks.append({"shape": _shape_words(rival), "glr": lam_r, "dof": dof_r,
                            "p_value": p_r if replaced else 1.0,
                            "p_searched": p_r, **there})  # fmt: skip
-        placed = [_placed_check(data, basis, selected, ev, a, settings, lowfreq)
-                  for a in (_placements(ev, alts, taken) if placements else [])]  # fmt: skip
-        worst, p = _bonferroni(checks, placed)
-        checks += placed
+        if placements:
+            checks += [_placed_check(data, basis, selected, ev, a, settings, lowfreq)
+                       for a in _placements(ev, alts, taken)]  # fmt: skip
+        worst = min(checks, key=lambda c: c["p_value"])
+        p = min(1.0, len(checks) * worst["p_value"])
         if p < alpha or alpha >= 1.0:  # alpha 1: every check listed, p = 1 too
             out.append({"key": cand.key, "channel": worst.get("placed_at", cand.channel),
                         "glr": worst["glr"],
@@ -1006,22 +1006,6 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
 
                 out[-1]["glr_alt"] = joint.alt_glr(data, basis, state, cols)[0]
     return out
-
-
-def _bonferroni(checks: list[dict], placed: list[dict]) -> tuple[dict, float]:
-    """The deciding check and the drift's p-value: Bonferroni over the checks' slots --
-    the curvature (``checks[0]``, made again at each of the ``placed`` channels: one
-    question, "is the slow change curved where it lives", Bonferroni over its
-    placements within its slot) and each searched shape (``checks[1:]``).  A placement
-    costs the curvature its share, not the searched shapes theirs (with one slot per
-    placement, kernel 170132's step, p 0.0026, went from 0.0077 over three checks to
-    0.0103 over four, and a relaxation was named a drift)."""
-    curv = [checks[0]] + placed
-    best = min(curv, key=lambda c: c["p_value"])
-    slots = [(best, min(1.0, len(curv) * best["p_value"]))]
-    slots += [(c, c["p_value"]) for c in checks[1:]]
-    worst, p = min(slots, key=lambda s: s[1])
-    return worst, min(1.0, len(slots) * p)
 
 
 def _placements(ev: Evaluation, alts: list[Evaluation], taken: set[str]) -> list[Evaluation]:
