@@ -77,7 +77,7 @@ def hold_run_lock(outdir: str | Path) -> Iterator[None]:
         flocked = _try_flock(fd, fcntl.LOCK_EX)
         if flocked is None:
             raise RunFolderBusy(f"run folder {outdir} is in use by "
-                                f"{describe_holder(_read_json(path))}")
+                                f"{describe_holder(_holder_of(outdir))}")
         holder = {"host": socket.gethostname(), "pid": os.getpid(),
                   "slurm_job": slurm_job_id(), "since": time.strftime("%Y-%m-%dT%H:%M:%S"),
                   "token": uuid.uuid4().hex}
@@ -248,6 +248,23 @@ def _release_lease(path: Path, token: str) -> None:
     if _read_json(path).get("token") == token:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(path)
+
+
+#: How long a process that found the flock held waits for the holder to write its name
+#: (the holder flocks first, then writes lease and lock file: a few ms, longer on a loaded
+#: machine -- two runs started together on 2 busy cores read an empty lock file).
+HOLDER_WAIT_S = 2.0
+
+
+def _holder_of(outdir: Path) -> dict:
+    """The holder named in the lock file (or else the lease), waiting up to HOLDER_WAIT_S
+    for it to be written; ``{}`` if it never is (described as "another process")."""
+    deadline = time.monotonic() + HOLDER_WAIT_S
+    while True:
+        holder = _read_json(outdir / LOCK_FILE) or _read_json(outdir / LEASE_FILE)
+        if holder or time.monotonic() > deadline:
+            return holder
+        time.sleep(0.02)
 
 
 def _read_json(path: Path) -> dict:
