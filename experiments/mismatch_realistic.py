@@ -674,6 +674,16 @@ def main_realistic(args) -> int:
 # ----------------------------------------------------------------------- calibration
 
 
+def case_recording(backend: str, seed: int):
+    """Benchmark recording ``seed`` of ``backend`` (its set's seed base: the seed rounded
+    down to 10000), made as the benchmark makes it: ``(recording, truth)``."""
+    from tmopt.mismatch.realistic import realistic_recording
+
+    [case] = [c for c in cases(backend, seed // 10000 * 10000, False) if c["seed"] == seed]
+    sc, effects, ooc, _ = build(case)
+    return realistic_recording(sc, effects, ooc, case["seed"], case["backend"])
+
+
 def diagnosed_case(case: dict):
     """Generate a case's recording and diagnose it: ``(diagnosis, snrs, None)``, or
     ``(None, None, "generation: ...")`` when the generator's loop diverged (reported, not

@@ -10,32 +10,18 @@ noise, so the plain regressor is exogenous: 139.5, named."""
 
 from __future__ import annotations
 
-import functools
-import sys
-from pathlib import Path
-
 import tmopt.mismatch.effects.base as base
 from tmopt.mismatch.diagnose import diagnose
 from tmopt.mismatch.fit import data_from_recording
 from tmopt.mismatch.report import build_report
 
-EXPERIMENTS = Path(__file__).resolve().parents[2] / "experiments"
+from . import benchmark_cases
+
 KEY = "sensing_cross_talk[disp:x1<-y1]"
 
 
-@functools.cache
 def _recording():
-    sys.path.insert(0, str(EXPERIMENTS))
-    try:
-        from mismatch_realistic import build, cases
-    finally:
-        sys.path.remove(str(EXPERIMENTS))
-    from tmopt.mismatch.realistic import realistic_recording
-
-    [case] = [c for c in cases("foreign", 160000, False) if c["seed"] == 160086]
-    sc, effects, ooc, _ = build(case)
-    rec, _ = realistic_recording(sc, effects, ooc, case["seed"], case["backend"])
-    return rec
+    return benchmark_cases.recording("foreign", 160086)
 
 
 def _named(rep) -> list[tuple[str, str]]:

@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import functools
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,22 +20,11 @@ from tmopt.mismatch import diagnose as dgn
 from tmopt.mismatch import joint, pairs
 from tmopt.mismatch.report import build_report
 
-EXPERIMENTS = Path(__file__).resolve().parents[2] / "experiments"
+from . import benchmark_cases
 
 
-@functools.cache
 def _recording(backend: str, seed: int):
-    sys.path.insert(0, str(EXPERIMENTS))
-    try:
-        from mismatch_realistic import build, cases
-    finally:
-        sys.path.remove(str(EXPERIMENTS))
-    from tmopt.mismatch.realistic import realistic_recording
-
-    [case] = [c for c in cases(backend, 160000, False) if c["seed"] == seed]
-    sc, effects, ooc, _ = build(case)
-    rec, _ = realistic_recording(sc, effects, ooc, case["seed"], case["backend"])
-    return rec
+    return benchmark_cases.recording(backend, seed)
 
 
 @functools.cache

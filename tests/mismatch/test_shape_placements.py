@@ -11,27 +11,19 @@ benchmark draw."""
 from __future__ import annotations
 
 import functools
-import sys
-from pathlib import Path
 
 from tmopt.mismatch import diagnose as dgn
 from tmopt.mismatch.report import build_report
 
-EXPERIMENTS = Path(__file__).resolve().parents[2] / "experiments"
+from . import benchmark_cases
 
 
 @functools.cache
 def _diagnosed(backend: str, seed: int):
     """Benchmark recording ``seed`` of the 160000 draw, diagnosed with the defaults."""
-    sys.path.insert(0, str(EXPERIMENTS))
-    try:
-        from mismatch_realistic import cases, diagnosed_case
-    finally:
-        sys.path.remove(str(EXPERIMENTS))
-    [case] = [c for c in cases(backend, 160000, False) if c["seed"] == seed]
-    dg, _, error = diagnosed_case(case)
-    assert error is None, error
-    return dg
+    from tmopt.mismatch.fit import data_from_recording
+
+    return dgn.diagnose(data_from_recording(benchmark_cases.recording(backend, seed)))
 
 
 def test_a_slow_curve_named_a_drift_on_another_axis_is_checked_where_it_lives():
