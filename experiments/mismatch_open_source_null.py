@@ -68,7 +68,6 @@ def _source(channel: str) -> int:
 
 
 def main() -> None:
-
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seed-base", type=int, default=17200)
     ap.add_argument("--n", type=int, default=32)

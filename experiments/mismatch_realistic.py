@@ -677,11 +677,18 @@ def main_realistic(args) -> int:
 def case_recording(backend: str, seed: int):
     """Benchmark recording ``seed`` of ``backend`` (its set's seed base: the seed rounded
     down to 10000), made as the benchmark makes it: ``(recording, truth)``."""
+    [case] = [c for c in cases(backend, seed // 10000 * 10000, False) if c["seed"] == seed]
+    return _made(case)[:2]
+
+
+def _made(case: dict):
+    """A case's ``(recording, truth, snrs)``: its scenario and items scaled (:func:`build`),
+    then recorded."""
     from tmopt.mismatch.realistic import realistic_recording
 
-    [case] = [c for c in cases(backend, seed // 10000 * 10000, False) if c["seed"] == seed]
-    sc, effects, ooc, _ = build(case)
-    return realistic_recording(sc, effects, ooc, case["seed"], case["backend"])
+    sc, effects, ooc, snrs = build(case)
+    rec, truth = realistic_recording(sc, effects, ooc, case["seed"], case["backend"])
+    return rec, truth, snrs
 
 
 def diagnosed_case(case: dict):
@@ -690,11 +697,9 @@ def diagnosed_case(case: dict):
     hidden)."""
     from tmopt.mismatch.diagnose import diagnose
     from tmopt.mismatch.fit import data_from_recording
-    from tmopt.mismatch.realistic import realistic_recording
 
     try:
-        sc, effects, ooc, snrs = build(case)
-        rec, _ = realistic_recording(sc, effects, ooc, case["seed"], case["backend"])
+        rec, _, snrs = _made(case)
     except Exception as exc:
         return None, None, f"generation: {exc}"
     return diagnose(data_from_recording(rec)), snrs, None

@@ -940,7 +940,7 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
     parameters, :func:`_replaced_by` --
     beside a true drift the 1/f^2 background's own kinks are significant too, but none
     stands in for the ramp), and with ``placements`` the fixed check made with the effect
-    moved to each of its :func:`placements` (the model refitted there,
+    moved to each of its :func:`_placements` (the model refitted there,
     :func:`_placed_check`; a check's ``placed_at`` names the channel), Bonferroni over
     the checks.  A misfit's ``channel`` is where its deciding check placed the effect.
     ``alpha``
@@ -1008,6 +1008,16 @@ def shape_misfits(data: Data, basis: np.ndarray, state: State, selected: list,
     return out
 
 
+def _in_place_of(data: Data, basis: np.ndarray, selected: list, ev: Evaluation,
+                 settings: Settings | None, at: Evaluation | None = None) -> State:
+    """The model refitted with every selected effect but ``ev``, and ``at`` in its place
+    (None: nothing) -- where :func:`_replaced_by` searches shapes and
+    :func:`_placed_check` moves the effect."""
+    settings = Settings() if settings is None else settings
+    others = [e for e, _ in selected if e is not ev]
+    return _rebuild(data, basis, others + ([] if at is None else [at]), settings)
+
+
 def _placements(ev: Evaluation, alts: list[Evaluation], taken: set[str]) -> list[Evaluation]:
     """Where else the data could have put a shape-checked effect: the same effect on
     another channel of its group among its near alternatives (within AMBIGUOUS_DBIC when
@@ -1022,14 +1032,12 @@ def _placements(ev: Evaluation, alts: list[Evaluation], taken: set[str]) -> list
 def _placed_check(data: Data, basis: np.ndarray, selected: list, ev: Evaluation,
                   at: Evaluation, settings: Settings | None, lowfreq: bool) -> dict:
     """The effect's fixed shape check with the effect placed at ``at`` (one of its
-    :func:`placements`): every other selected effect kept, the model refitted with
+    :func:`_placements`): every other selected effect kept, the model refitted with
     ``at`` in the effect's place, the shape's columns at ``at``'s channel added to it.
     Why: a check at the named channel alone passes a curve that a drift elsewhere
     cannot fit as a line -- the curvature lives where the slow change is, and the
     name's channel is a choice the data barely made."""
-    settings = Settings() if settings is None else settings
-    others = [e for e, _ in selected if e is not ev]
-    st = _rebuild(data, basis, others + [at], settings)
+    st = _in_place_of(data, basis, selected, ev, settings, at)
     ctx = Context(data, basis, st.eq_fit.residual, st.eq_noise)
     cols = EFFECTS[at.candidate.effect].shape_check(ctx, at.candidate)
     lam = float(_Group(None, st.eq_cols, st.eq_fit, st.eq_noise.whiten).glr(cols))
@@ -1056,9 +1064,7 @@ def _replaced_by(data: Data, basis: np.ndarray, selected: list, ev: Evaluation,
     The margin: a relaxation with a long tau *is* a ramp, so on a true drift it can tie
     with it (33012: 19.3 against 19.3); the comparison of two non-nested models charges
     the freer one its extra parameters (Akaike 1974), not a level tuned here."""
-    settings = Settings() if settings is None else settings
-    others = [e for e, _ in selected if e is not ev]
-    st = _rebuild(data, basis, others, settings)
+    st = _in_place_of(data, basis, selected, ev, settings)
     group = _Group(None, st.eq_cols, st.eq_fit, st.eq_noise.whiten)
     ctx = Context(data, basis, st.eq_fit.residual, st.eq_noise)
     cand = ev.candidate
@@ -1505,8 +1511,8 @@ def _pair_step(data: Data, basis: np.ndarray, state: State, evals: list[Evaluati
 
     if not settings.pairs or paired >= pairs.MAX_PAIRS or room < 2:
         return None
-    found = pairs.best_pair(residual_groups(data, state)["equation"], evals,
-                            settings.alpha, n_tests)  # fmt: skip
+    group = _Group(None, state.eq_cols, state.eq_fit, state.eq_noise.whiten)
+    found = pairs.best_pair(group, evals, settings.alpha, n_tests)
     if found is not None:
         (a, _), (b, _) = found
         note = (f"pair search: {a.candidate.key} and {b.candidate.key} found together "

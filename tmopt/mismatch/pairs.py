@@ -43,7 +43,7 @@ from scipy import stats
 from tmopt.mismatch import calibration as cal
 from tmopt.mismatch import joint
 
-__all__ = ["MAX_PAIRS", "PairTest", "pair_tests", "best_pair"]
+__all__ = ["MAX_PAIRS", "PairTest", "pair_tests", "significant", "best_pair"]
 
 #: Pairs the search may add per selection.
 MAX_PAIRS = 1
