@@ -45,6 +45,10 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--no-pairs", action="store_true",
                    help="do not test candidates in pairs where no single one is significant "
                         "(on by default, docs/mismatch.md 9.18)")  # fmt: skip
+    p.add_argument("--no-true-position", action="store_true",
+                   help="put the stiffness on the readout as recorded, not on the true "
+                        "position with the readout noise taken out (on by default, "
+                        "docs/mismatch.md 9.19)")  # fmt: skip
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--design-next", action="store_true",
                    help="also design the next excitation into --out (python -m tmopt.design)")
@@ -73,7 +77,8 @@ def main(argv: list[str] | None = None) -> int:
                         rejudge=not args.no_rejudge, in_place=not args.no_in_place,
                         shape_search=not args.no_shape_search,
                         shape_placements=not args.no_shape_placements,
-                        pairs=not args.no_pairs)  # fmt: skip
+                        pairs=not args.no_pairs,
+                        true_position=not args.no_true_position)  # fmt: skip
     dg = diagnose(data_from_recording(rec), settings)
     rep = write_report(dg, args.out, plots=not args.no_plots)
     print(rep["conclusion"])

@@ -103,6 +103,11 @@ class Settings:
     # (:mod:`tmopt.mismatch.pairs`, docs 9.18): a bias drift and a stiffness drift on one
     # axis hid each other (f160106: GLR 9.4 and 4.3 alone, 42.8 together)
     pairs: bool = True
+    # the stiffness regressors on the true position, the readout noise estimated from
+    # the kinematic residual and taken out (:mod:`tmopt.mismatch.true_position`, docs
+    # 9.19): k n_r is correlated with the force the loop makes from n_r, and named an
+    # actuation gain on clean recordings (kernel 170028: GLR 16.0 -> 0.3)
+    true_position: bool = True
 
     def __post_init__(self) -> None:
         if not (0 < self.alpha < 1 and 0 < self.locate_alpha < 1):
@@ -115,7 +120,7 @@ class Settings:
         if self.noise not in ("coloured", "white"):
             raise ValueError(f"noise must be 'coloured' or 'white'; got {self.noise!r}")
         for name in ("generic", "joint", "rejudge", "in_place", "shape_search",
-                     "shape_placements", "pairs"):
+                     "shape_placements", "pairs", "true_position"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name} must be True or False; got {getattr(self, name)!r}")
         if not set(self.lowfreq) <= set(cal.LOWFREQ_NULL) - {"shape"}:
@@ -1309,6 +1314,8 @@ def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
     verdict = precheck(data)
     if verdict.refused:
         return _refused(data, settings, verdict, verdict.reason)
+    if data.true_position != settings.true_position:
+        data = replace(data, true_position=settings.true_position)
     raw, stiffness, nuisance, moved = data, None, [], []
     for attempt in range(1 + MAX_STIFFNESS_REDOS):
         dg = _diagnose_prepared(*prepare(copy.deepcopy(raw), stiffness, nuisance), settings,

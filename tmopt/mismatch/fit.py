@@ -48,6 +48,7 @@ import numpy as np
 from scipy import signal
 
 from tmopt.mismatch.noise_model import Layout
+from tmopt.mismatch.true_position import readout_noise
 from tmopt.physics.geometry import Geometry
 from tmopt.physics.recording import AXES
 
@@ -110,6 +111,9 @@ class Data:
     usage: dict = field(default_factory=dict)
     acc_convention: str = "held"
     stiffness: np.ndarray | None = None  # k per axis for the exact kinematics (None: 0)
+    # the stiffness regressors on the true position: the readout noise taken out
+    # (:mod:`tmopt.mismatch.true_position`); False: on the readout as recorded
+    true_position: bool = True
 
     def __post_init__(self) -> None:
         if self.segments is None:
@@ -130,18 +134,27 @@ class Data:
     @property
     def x_eq(self) -> np.ndarray:
         """Positions as the accelerometer sees them (the stiffness term of Eq. 10): the
-        readout ``x_n`` for the ``held`` convention (``k r(t_n)``), the interval mean
-        ``(x_n + x_{n+1})/2`` for ``mean`` (exact to ``k a h^2/12`` ~ 1e-16 m s^-2); the
-        last sample of a segment keeps ``x_n``."""
-        if self.acc_convention != "mean":
-            return self.x
+        true position ``r(t_n)`` for the ``held`` convention, the interval mean
+        ``(r_n + r_{n+1})/2`` for ``mean`` (exact to ``k a h^2/12`` ~ 1e-16 m s^-2; the
+        last sample of a segment keeps ``r_n``).  ``r`` is the readout less its estimated
+        noise (:func:`tmopt.mismatch.true_position.readout_noise`; the readout itself when
+        ``true_position`` is False): ``k n_r`` is correlated with the force the loop makes
+        from ``n_r`` (docs/mismatch.md 9.19)."""
+        key = (self.acc_convention, self.true_position,
+               None if self.stiffness is None else np.asarray(self.stiffness, float).tobytes())
         cache = self.__dict__.setdefault("_x_eq", {})
-        if "mean" not in cache:
-            out = self.x.copy()
-            for a, b in self.segments:
-                out[:, a : b - 1] = 0.5 * (self.x[:, a : b - 1] + self.x[:, a + 1 : b])
-            cache["mean"] = out
-        return cache["mean"]
+        if key not in cache:
+            r = self.x
+            if self.true_position:
+                r = r - readout_noise(self.x, kinematic_target(self), self.segments, self.fs)
+            if self.acc_convention == "mean":
+                out = r.copy()
+                for a, b in self.segments:
+                    out[:, a : b - 1] = 0.5 * (r[:, a : b - 1] + r[:, a + 1 : b])
+                r = out
+            cache.clear()
+            cache[key] = r
+        return cache[key]
 
     @property
     def layout(self) -> Layout:

@@ -310,7 +310,7 @@ def _settings(dg: Diagnosis) -> dict:
             "rejudge": dg.settings.rejudge, "in_place": dg.settings.in_place,
             "shape_search": dg.settings.shape_search,
             "shape_placements": dg.settings.shape_placements,
-            "pairs": dg.settings.pairs}  # fmt: skip
+            "pairs": dg.settings.pairs, "true_position": dg.settings.true_position}  # fmt: skip
 
 
 def build_report(dg: Diagnosis) -> dict:
