@@ -1252,9 +1252,11 @@ def _implausible(state: State, selected: list) -> tuple[Candidate, str] | None:
     """The first selected effect beyond physics and why
     (:func:`tmopt.mismatch.plausibility.implausible_effects`), or None."""
     for ev, _ in selected:
-        params = {k: v for k, (v, _) in effect_parameters(state, ev.candidate).items()}
-        reason = implausible_effects([{"name": ev.candidate.effect, "parameters": params,
-                                       "channel": ev.candidate.channel}])  # fmt: skip
+        fitted = effect_parameters(state, ev.candidate)
+        reason = implausible_effects([{
+            "name": ev.candidate.effect, "channel": ev.candidate.channel,
+            "parameters": {k: v for k, (v, _) in fitted.items()},
+            "uncertainties": {k: s for k, (_, s) in fitted.items()}}])  # fmt: skip
         if reason is not None:
             return ev.candidate, reason
     return None

@@ -513,21 +513,31 @@ def precheck(data: Data) -> Verdict:
     return Verdict(checks)
 
 
+#: An explanation is beyond physics only when its range is excluded by the data: the
+#: fitted parameter's ``|value| - BEYOND_Z sigma`` past the limit (two-sided ~0.3 %).  The
+#: point estimate alone refused a stiffness drift generated at its limit (foreign 170051:
+#: kdot = -1e-8 s^-3, fitted -1.01e-8; docs/mismatch.md 9.19).
+BEYOND_Z = 3.0
+
+
 def implausible_effects(effects: list[dict]) -> str | None:
     """A reason to refuse when a selected explanation is beyond physics: a fitted main
     parameter larger than the effect's range (``Effect.limit``, the generator's and the
-    catalogue's physical maximum) -- a unit error or a swapped channel, not that effect."""
+    catalogue's physical maximum) by more than :data:`BEYOND_Z` of its standard error
+    (``e["uncertainties"]``, when given) -- a unit error or a swapped channel, not that
+    effect."""
     from tmopt.mismatch.effects import EFFECTS
 
     for e in effects:
         model = EFFECTS.get(e["name"])
         if model is None:
             continue
-        value = e["parameters"].get(model.parameter)
-        if model.parameter == "d_angle":
-            value = e["parameters"].get("d_alpha")
+        key = "d_alpha" if model.parameter == "d_angle" else model.parameter
+        value = e["parameters"].get(key)
+        sigma = e.get("uncertainties", {}).get(key, 0.0)
+        sigma = sigma if isinstance(sigma, (int, float)) and math.isfinite(sigma) else 0.0
         if isinstance(value, (int, float)) and math.isfinite(value) and \
-                abs(value) > model.limit:  # fmt: skip
+                abs(value) - BEYOND_Z * sigma > model.limit:  # fmt: skip
             return (f"cannot diagnose: the best explanation needs {e['name']} "
                     f"[{e['channel']}] with {model.parameter} = {value:.3g} {model.unit}, "
                     f"beyond its physical range (|{model.parameter}| <= {model.limit:g}): "
