@@ -691,10 +691,10 @@ def _made(case: dict):
     return rec, truth, snrs
 
 
-def diagnosed_case(case: dict):
-    """Generate a case's recording and diagnose it: ``(diagnosis, snrs, None)``, or
-    ``(None, None, "generation: ...")`` when the generator's loop diverged (reported, not
-    hidden)."""
+def diagnosed_case(case: dict, settings=None):
+    """Generate a case's recording and diagnose it (``settings``: the tool's, default its
+    defaults): ``(diagnosis, snrs, None)``, or ``(None, None, "generation: ...")`` when the
+    generator's loop diverged (reported, not hidden)."""
     from tmopt.mismatch.diagnose import diagnose
     from tmopt.mismatch.fit import data_from_recording
 
@@ -702,7 +702,7 @@ def diagnosed_case(case: dict):
         rec, _, snrs = _made(case)
     except Exception as exc:
         return None, None, f"generation: {exc}"
-    return diagnose(data_from_recording(rec)), snrs, None
+    return diagnose(data_from_recording(rec), settings), snrs, None
 
 
 def calibration_cli(description: str, n_default: int, out_default: str, argv=None,

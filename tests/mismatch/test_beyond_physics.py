@@ -1,5 +1,5 @@
-"""An explanation is beyond physics only when the data exclude its range (stop 43, docs/
-mismatch.md 9.19, :data:`tmopt.mismatch.plausibility.BEYOND_Z`).
+"""An explanation is beyond physics only when the data exclude its range -- or it is past
+twice the limit (stop 43, docs/mismatch.md 9.19, :data:`tmopt.mismatch.plausibility.BEYOND_Z`).
 
 Foreign 170051 (the eighteenth benchmark run's, already read) holds a stiffness drift on
 x1 generated at its limit, kdot = -1e-8 s^-3.  The fit gave -1.01e-8: past the limit by
@@ -35,6 +35,7 @@ def _drift(value: float, sigma: float | None) -> dict:
     (-1.01 * LIMIT, 0.05 * LIMIT, False),
     (LIMIT + 1.01 * BEYOND_Z * 0.05 * LIMIT, 0.05 * LIMIT, True),  # just excluded
     (113.0 * LIMIT, 0.5 * LIMIT, True),  # a unit error stays refused
+    (2.5 * LIMIT, 10.0 * LIMIT, True),  # past twice the limit: refused however uncertain
 ])  # fmt: skip
 def test_the_range_must_be_excluded_by_the_data(value, sigma, beyond):
     reason = implausible_effects([_drift(value, sigma)])
@@ -56,3 +57,17 @@ def test_with_the_point_estimate_alone_it_was_taken_out(monkeypatch):
     dg = diagnose(data_from_recording(benchmark_cases.recording("foreign", 170051)))
     assert [b["key"] for b in dg.beyond] == ["stiffness_drift[x1]"]
     assert not build_report(dg)["effects"]
+
+
+@pytest.mark.parametrize("beta,beyond", [(1.014, False), (-0.98, False), (-999.0, True)])
+def test_a_quantisation_whose_sawtooth_is_a_gain_is_beyond_physics(beta, beyond):
+    """The sawtooth's amplitude is the DAC step's (|beta| <= 1.5, ``side_limits``): a
+    force channel in the wrong unit was explained by a sawtooth that is the force itself,
+    beta_x1 = -999 (the nonsense sweep of test_plausibility.py)."""
+    e = {"name": "actuation_quantisation", "channel": "all axes",
+         "parameters": {"q": 7e-9, "beta_x1": beta, "beta_x2": 1.0},
+         "uncertainties": {"beta_x1": 1e-3}}  # fmt: skip
+    reason = implausible_effects([e])
+    assert (reason is not None) == beyond
+    if beyond:
+        assert "beta_x1 = -999" in reason and "(|beta_x1| <= 1.5)" in reason

@@ -19,13 +19,14 @@ from pathlib import Path
 import pytest
 
 from tmopt.mismatch import diagnose as dgn
+from tmopt.mismatch.diagnose import Settings
 from tmopt.mismatch.report import build_report
 
 EXPERIMENTS = Path(__file__).resolve().parents[2] / "experiments"
 
 
 @functools.cache
-def _diagnosed_once(set_: str, backend: str, seed: int):
+def _diagnosed_once(set_: str, backend: str, seed: int, true_position: bool = True):
     sys.path.insert(0, str(EXPERIMENTS))
     try:
         from mismatch_realistic import diagnosed_case
@@ -35,13 +36,16 @@ def _diagnosed_once(set_: str, backend: str, seed: int):
     base = 33000 if seed < 35000 else 35000
     [job] = [j for j in jobs(20, "bias_drift", base)
              if (j["set"], j["backend"], j["seed"]) == (set_, backend, seed)]  # fmt: skip
-    return diagnosed_case(job)
+    return diagnosed_case(job, Settings(true_position=true_position))
 
 
-def _diagnosed(set_: str, backend: str, seed: int):
+def _diagnosed(set_: str, backend: str, seed: int, true_position: bool = True):
     """The calibration job's recording (its set and seed) diagnosed with the defaults
-    (once per module: the parametrised test reads the same diagnosis)."""
-    dg, _, error = _diagnosed_once(set_, backend, seed)
+    (once per module: the parametrised test reads the same diagnosis).  ``true_position``
+    False: the gate's design cases as they were found (before docs/mismatch.md 9.19; on the
+    true position kernel 33013's kink is no longer significant, p 0.0035, and kernel
+    33012's drift is flagged -- 9.19 and section 10)."""
+    dg, _, error = _diagnosed_once(set_, backend, seed, true_position)
     assert error is None, error
     return dg
 
@@ -82,7 +86,7 @@ def test_a_kink_of_the_background_beside_a_true_drift_does_not_take_its_name(mon
     but in the drift's place no step or relaxation explains as much as the ramp (GLR 34
     against 36), so it does not count and the drift keeps its name.  Counted regardless
     (the gate off), the drift would be a shape misfit."""
-    dg = _diagnosed("null", "kernel", 33013)
+    dg = _diagnosed("null", "kernel", 33013, true_position=False)
     key = _drift(dg)
     assert not [m for m in dg.misfits if m["key"] == key], dg.misfits
     [c] = dgn.shape_misfits(dg.data, dg.basis, dg.after, dg.selected, 1.0)
@@ -101,7 +105,7 @@ def test_a_relaxation_that_only_ties_with_a_true_ramp_does_not_replace_it():
     each) it does not replace the drift, nor does the step (19.3 < 19.3 + 2), and the
     drift keeps its name.  (Found when the design set was re-run with the first gate,
     which compared the GLRs bare and flagged this drift.)"""
-    dg = _diagnosed("null", "kernel", 33012)
+    dg = _diagnosed("null", "kernel", 33012, true_position=False)
     key = _drift(dg)
     assert not [m for m in dg.misfits if m["key"] == key], dg.misfits
     [c] = dgn.shape_misfits(dg.data, dg.basis, dg.after, dg.selected, 1.0)

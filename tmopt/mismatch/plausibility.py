@@ -513,10 +513,12 @@ def precheck(data: Data) -> Verdict:
     return Verdict(checks)
 
 
-#: An explanation is beyond physics only when its range is excluded by the data: the
-#: fitted parameter's ``|value| - BEYOND_Z sigma`` past the limit (two-sided ~0.3 %).  The
-#: point estimate alone refused a stiffness drift generated at its limit (foreign 170051:
-#: kdot = -1e-8 s^-3, fitted -1.01e-8; docs/mismatch.md 9.19).
+#: An explanation is beyond physics when its fitted parameter is past the limit by more
+#: than BEYOND_Z standard errors (two-sided ~0.3 %) -- the noise may carry a limit-sized
+#: effect past it: the point estimate alone refused a stiffness drift generated at its
+#: limit (foreign 170051: kdot = -1e-8 s^-3, fitted -1.01e-8) -- and always when past twice
+#: the limit, however uncertain: a degenerate accelerometer scale of -162 +- 10^2 is a
+#: unit error's signature, not a calibration (foreign 110102; docs/mismatch.md 9.19).
 BEYOND_Z = 3.0
 
 
@@ -524,22 +526,26 @@ def implausible_effects(effects: list[dict]) -> str | None:
     """A reason to refuse when a selected explanation is beyond physics: a fitted main
     parameter larger than the effect's range (``Effect.limit``, the generator's and the
     catalogue's physical maximum) by more than :data:`BEYOND_Z` of its standard error
-    (``e["uncertainties"]``, when given) -- a unit error or a swapped channel, not that
-    effect."""
+    (``e["uncertainties"]``, when given) or by more than the limit itself -- a unit error
+    or a swapped channel, not that effect."""
     from tmopt.mismatch.effects import EFFECTS
 
     for e in effects:
         model = EFFECTS.get(e["name"])
         if model is None:
             continue
-        key = "d_alpha" if model.parameter == "d_angle" else model.parameter
-        value = e["parameters"].get(key)
-        sigma = e.get("uncertainties", {}).get(key, 0.0)
-        sigma = sigma if isinstance(sigma, (int, float)) and math.isfinite(sigma) else 0.0
-        if isinstance(value, (int, float)) and math.isfinite(value) and \
-                abs(value) - BEYOND_Z * sigma > model.limit:  # fmt: skip
-            return (f"cannot diagnose: the best explanation needs {e['name']} "
-                    f"[{e['channel']}] with {model.parameter} = {value:.3g} {model.unit}, "
-                    f"beyond its physical range (|{model.parameter}| <= {model.limit:g}): "
-                    "a unit error, a swapped or a rescaled channel?")
+        main = "d_alpha" if model.parameter == "d_angle" else model.parameter
+        bounds = [(main, model.parameter, model.limit, model.unit)]
+        bounds += [(k, k, lim, "") for prefix, lim in model.side_limits.items()
+                   for k in e["parameters"] if k.startswith(prefix)]  # fmt: skip
+        for key, shown, limit, unit in bounds:
+            value = e["parameters"].get(key)
+            sigma = e.get("uncertainties", {}).get(key, 0.0)
+            sigma = sigma if isinstance(sigma, (int, float)) and math.isfinite(sigma) else 0.0
+            if isinstance(value, (int, float)) and math.isfinite(value) and \
+                    abs(value) - min(BEYOND_Z * sigma, limit) > limit:  # fmt: skip
+                return (f"cannot diagnose: the best explanation needs {e['name']} "
+                        f"[{e['channel']}] with {shown} = {value:.3g} {unit}".rstrip()
+                        + f", beyond its physical range (|{shown}| <= {limit:g}): "
+                        "a unit error, a swapped or a rescaled channel?")
     return None

@@ -34,6 +34,11 @@ class ActuationQuantisation(Effect):
     parameter, unit, limit = "q", "m s^-2", 1e-8
     signed = False
     channels = AXES + ("all",)
+    #: The sawtooth's amplitude per axis is the DAC step's own: 1, up to the drive's gain
+    #: error (|g| <= actuation_gain's limit, 0.5).  On the 28 quantisation names of the
+    #: nineteenth benchmark run |beta| <= 1.014; a force channel in the wrong unit (x 1e-3)
+    #: was "explained" by a sawtooth that is the force itself, beta = -999 (docs 9.19).
+    side_limits: ClassVar[dict[str, float]] = {"beta_": 1.5}
     explanation = ("the applied force is the commanded force rounded to steps of "
                    "q = {q:.3g} m s^-2 (actuator DAC resolution)")  # fmt: skip
     needs = "force commands spanning many steps (any closed-loop run does)"

@@ -249,6 +249,10 @@ class Effect:
     default_channel: ClassVar[str] = "x1"
     windowed: ClassVar[bool] = False
     options: ClassVar[dict[str, Any]] = {}
+    #: Largest |value| of fitted parameters other than ``parameter`` (by name prefix) that
+    #: physics allows: past it the explanation is beyond physics
+    #: (:func:`tmopt.mismatch.plausibility.implausible_effects`).
+    side_limits: ClassVar[dict[str, float]] = {}
 
     # diagnosis side
     group: ClassVar[str] = "equation"
