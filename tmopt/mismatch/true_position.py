@@ -29,9 +29,8 @@ noise.  A force on the mass (a glitch, the excitation) moves both sensors and is
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
+from scipy import signal
 
 from tmopt.mismatch.noise_model import band_edges
 
@@ -41,7 +40,6 @@ __all__ = ["readout_noise", "MIN_SEGMENT"]
 MIN_SEGMENT = 64
 #: The plateau is the level of ``d``'s periodogram above ``fs / PLATEAU_FROM``.
 PLATEAU_FROM = 8.0
-_LN2 = math.log(2.0)
 
 
 def readout_noise(x: np.ndarray, kin_residual: np.ndarray, segments, fs: float) -> np.ndarray:
@@ -67,15 +65,14 @@ def _segment_noise(rows: np.ndarray, m: int, fs: float) -> np.ndarray:
     Wiener-weighted by its own spectrum (mirror-extended: no jump at the wrap)."""
     d = np.zeros((rows.shape[0], m))
     d[:, 2:] = np.cumsum(np.cumsum(rows, axis=1), axis=1)
-    t = np.arange(m, dtype=float)
-    line = np.polynomial.polynomial.polyfit(t, d.T, 1)  # (2, C)
-    d -= (line[0][:, None] + line[1][:, None] * t)
+    d = signal.detrend(d, axis=1, type="linear")
     xf = np.fft.rfft(np.concatenate([d, d[:, ::-1]], axis=1), axis=1)
     f = np.fft.rfftfreq(2 * m, 1.0 / fs)
     p = np.abs(xf) ** 2
+    # band medians: both levels are medians of chi^2_2 bins, so their ratio needs no ln 2
     smooth = np.full_like(p, np.inf)  # the DC bin: the line's, nothing to estimate
     for lo, hi in band_edges(f[1:]):
         smooth[:, 1 + lo : 1 + hi] = np.median(p[:, 1 + lo : 1 + hi], axis=1, keepdims=True)
-    plateau = np.median(p[:, f >= fs / PLATEAU_FROM], axis=1, keepdims=True) / _LN2
-    gain = np.clip(plateau / (smooth / _LN2), 0.0, 1.0)
+    plateau = np.median(p[:, f >= fs / PLATEAU_FROM], axis=1, keepdims=True)
+    gain = np.clip(plateau / smooth, 0.0, 1.0)
     return np.fft.irfft(gain * xf, n=2 * m, axis=1)[:, :m]
