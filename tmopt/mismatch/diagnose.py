@@ -56,7 +56,14 @@ from tmopt.mismatch.fit import (
 )
 from tmopt.mismatch.locate import Locations, locate
 from tmopt.mismatch.noise_model import RED_EXPONENTS, NoiseModel, fit_red
-from tmopt.mismatch.plausibility import Verdict, implausible_effects, precheck, saturations
+from tmopt.mismatch.plausibility import (
+    STIFFNESS_LIMIT,
+    Verdict,
+    beyond_physics,
+    implausible_effects,
+    precheck,
+    saturations,
+)
 
 __all__ = ["Settings", "Evaluation", "State", "Diagnosis", "diagnose", "fit_state"]
 
@@ -1262,6 +1269,46 @@ def _implausible(state: State, selected: list) -> tuple[Candidate, str] | None:
     return None
 
 
+def _stiffness_beyond(data: Data, basis: np.ndarray, state: State, selected: list,
+                      settings: Settings) -> tuple[Candidate, str] | None:
+    """The selected effect that puts the final model's stiffness beyond physics
+    (|k| past :data:`~tmopt.mismatch.plausibility.STIFFNESS_LIMIT` by more than
+    BEYOND_Z standard errors: :func:`~tmopt.mismatch.plausibility.beyond_physics`) and
+    why, or None.
+
+    Why: with one tone on an axis, an actuation gain ``g`` and the stiffness are one
+    column there (``dk = -g w^2``); the gain is told apart only by the loop's broadband
+    force.  A delay of 0.1 ms on a 27 s tone was named a gain of -1.1e-3 and the final
+    model's k1xx went from 9e-7 to -6e-5 s^-2 to keep the tone (foreign 180038): the
+    name needs a stiffness no test mass has.  A true gain does the opposite -- the nominal
+    fit's k is biased and the final model's is physical (foreign 40086).  The effect
+    blamed is the one whose removal (every other selected effect kept) brings every
+    such stiffness back in range, the largest move first; when none does, the stiffness
+    is left to the report (an unmodelled effect in step with the motion)."""
+    def beyond(fit, n: str) -> bool:
+        return beyond_physics(fit.value(n), fit.sigma(n), STIFFNESS_LIMIT, twice=False)
+
+    over = [n for n in STIFFNESS_NAMES if n in state.eq_fit.names and beyond(state.eq_fit, n)]
+    if not over:
+        return None
+    best = None
+    for ev, _ in selected:
+        fit = _in_place_of(data, basis, selected, ev, settings).eq_fit
+        if any(beyond(fit, n) for n in over):
+            continue
+        move = sum(abs(state.eq_fit.value(n)) - abs(fit.value(n)) for n in over)
+        if best is None or move > best[0]:
+            best = (move, ev)
+    if best is None:
+        return None
+    cand = best[1].candidate
+    ks = ", ".join(f"{n} = {state.eq_fit.value(n):.3g} s^-2" for n in over)
+    return cand, (f"cannot diagnose: the best explanation needs {cand.effect} "
+                  f"[{cand.channel}] with {ks} beside it, beyond a test mass's stiffness "
+                  f"(|k| <= {STIFFNESS_LIMIT:g} s^-2): an effect in step with the motion "
+                  "that the stiffness absorbs")  # fmt: skip
+
+
 def _refused(data: Data, settings: Settings, verdict: Verdict, reason: str) -> Diagnosis:
     """A refusal; a measured channel at a rail (:func:`saturations`) is named as the
     likely cause and its axis kept as unexplained (a clipped accelerometer breaks Eq. 10
@@ -1396,7 +1443,8 @@ def _diagnose_prepared(data: Data, basis: np.ndarray, settings: Settings,
     while True:
         selected, steps, state, n_tests = _select(data, basis, before, settings,
                                                   {b["key"] for b in beyond}, tests)  # fmt: skip
-        bad = _implausible(state, selected)
+        bad = _implausible(state, selected) or _stiffness_beyond(data, basis, state,
+                                                                   selected, settings)
         if bad is None:
             break
         if len(beyond) >= MAX_IMPLAUSIBLE:  # the ones taken out before are said too
