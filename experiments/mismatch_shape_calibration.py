@@ -1,7 +1,7 @@
 """Calibration of a drift's shape check (``SHAPE_ALPHA``) on flight-like recordings.
 
     python experiments/mismatch_shape_calibration.py [--effect bias_drift|stiffness_drift] \\
-        [--n 20] [--jobs 1] [--out DIR]
+        [--n 20] [--jobs 1] [--seed-base S] [--no-true-position] [--out DIR]
 
 A selected ``bias_drift`` or ``stiffness_drift`` is reported ambiguous, its channel
 unexplained, when Legendre P2 + P3 of time (times the axis' position, for the stiffness)
@@ -23,6 +23,10 @@ stiffness step for the stiffness drift; :meth:`tmopt.mismatch.effects.base.Effec
 shape_search`, Bonferroni over the checks, docs/mismatch.md 9.17); each row keeps every
 check's own p-value (``checks``) and the fixed check's alone (``fixed_p``).
 
+``--no-true-position``: the stiffness acts on the readout as recorded
+(``Settings(true_position=False)``, docs/mismatch.md 9.19), for a paired measure of what
+the true position costs or gains the check.
+
 Prints each recording's shape-check p-value and the two rates.  The level is a plain test
 level fixed before this run (0.01), not tuned on it.
 """
@@ -40,7 +44,8 @@ EFFECTS = {"bias_drift": (33000, ("bias_modulation", "thermal_relaxation")),
            "stiffness_drift": (34000, ("stiffness_step",))}
 
 
-def jobs(n: int, effect: str = "bias_drift", seed_base: int | None = None) -> list[dict]:
+def jobs(n: int, effect: str = "bias_drift", seed_base: int | None = None,
+         true_position: bool = True) -> list[dict]:  # fmt: skip
     base, power = EFFECTS[effect]
     base = base if seed_base is None else seed_base
     out = []
@@ -53,18 +58,21 @@ def jobs(n: int, effect: str = "bias_drift", seed_base: int | None = None) -> li
             out.append({"set": "power", "backend": backend, "category": "out-of-catalogue",
                         "seed": base + 500 + i, "effect": effect,
                         "items": [{"kind": "ooc", "name": power[i % len(power)], "snr": 40.0}]})
+    for j in out:
+        j["true_position"] = true_position
     return out
 
 
 def run(job: dict) -> dict:
     from mismatch_realistic import diagnosed_case
 
-    from tmopt.mismatch.diagnose import shape_misfits
+    from tmopt.mismatch.diagnose import Settings, shape_misfits
 
     t0 = time.process_time()
     row = {k: job[k] for k in ("set", "backend", "seed")}
     row["truth"] = job["items"][0]["name"]
-    dg, snrs, error = diagnosed_case(job)
+    row["true_position"] = job.get("true_position", True)
+    dg, snrs, error = diagnosed_case(job, Settings(true_position=row["true_position"]))
     if error:
         return {**row, "error": error}
     row["snr"] = snrs[0]
@@ -90,14 +98,18 @@ def main(argv=None) -> int:
                         argv, {"--effect": {"choices": tuple(EFFECTS), "default": "bias_drift"},
                                "--seed-base": {"type": int, "default": None,
                                                "help": "first null seed (power: +500); "
-                                                       "default the effect's own"}})  # fmt: skip
+                                                       "default the effect's own"},
+                         "--no-true-position": {"action": "store_true",
+                                                "help": "the stiffness on the readout as "
+                                                        "recorded (a paired arm)"}})  # fmt: skip
     if a is None:
         return 2
     if a.seed_base is not None and not 20000 <= a.seed_base < 40000:
         print(f"--seed-base must be in [20000, 40000) (calibration seeds, never a "
               f"benchmark's); got {a.seed_base}", file=sys.stderr)  # fmt: skip
         return 2
-    rows = streamed_rows(Path(a.out) / "rows.jsonl", jobs(a.n, a.effect, a.seed_base), run,
+    rows = streamed_rows(Path(a.out) / "rows.jsonl",
+                         jobs(a.n, a.effect, a.seed_base, not a.no_true_position), run,
                          a.jobs)  # fmt: skip
     from tmopt.mismatch.calibration import SHAPE_ALPHA
 
