@@ -60,9 +60,11 @@ def readout_noise(x: np.ndarray, kin_residual: np.ndarray, segments, fs: float) 
     return out
 
 
-def _segment_noise(rows: np.ndarray, m: int, fs: float) -> np.ndarray:
+def _segment_noise(rows: np.ndarray, m: int, fs: float, min_gain: float = 0.0) -> np.ndarray:
     """One segment: the double integral of its kinematic rows, a straight line taken out,
-    Wiener-weighted by its own spectrum (mirror-extended: no jump at the wrap)."""
+    Wiener-weighted by its own spectrum (mirror-extended: no jump at the wrap).
+    ``min_gain``: bins whose gain is below it are left out (0: none; a probe's knob,
+    ``experiments/mismatch_true_position_probe.py``)."""
     d = np.zeros((rows.shape[0], m))
     d[:, 2:] = np.cumsum(np.cumsum(rows, axis=1), axis=1)
     d = signal.detrend(d, axis=1, type="linear")
@@ -75,4 +77,5 @@ def _segment_noise(rows: np.ndarray, m: int, fs: float) -> np.ndarray:
         smooth[:, 1 + lo : 1 + hi] = np.median(p[:, 1 + lo : 1 + hi], axis=1, keepdims=True)
     plateau = np.median(p[:, f >= fs / PLATEAU_FROM], axis=1, keepdims=True)
     gain = np.clip(plateau / smooth, 0.0, 1.0)
+    gain[gain < min_gain] = 0.0
     return np.fft.irfft(gain * xf, n=2 * m, axis=1)[:, :m]
