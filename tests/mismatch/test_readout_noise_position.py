@@ -18,7 +18,7 @@ import pytest
 from tmopt.mismatch.diagnose import Settings, diagnose, residual_groups
 from tmopt.mismatch.fit import Column, axis_column, data_from_recording
 from tmopt.mismatch.report import build_report
-from tmopt.mismatch.true_position import MIN_SEGMENT, readout_noise
+from tmopt.mismatch.true_position import MIN_SEGMENT, _segment_noise, readout_noise
 
 from . import benchmark_cases
 
@@ -82,6 +82,21 @@ def test_nothing_is_taken_out_where_the_accelerometer_dominates():
     t = np.arange(r.size)
     red = acc_only - np.polyval(np.polyfit(t, acc_only, 1), t)
     assert np.std(est) < 0.1 * np.std(red)
+
+
+def test_the_probes_gate_leaves_out_the_partial_gains():
+    """``min_gain`` (experiments/mismatch_true_position_probe.py): 0 is the estimate;
+    above 1 nothing is taken out; at 0.9 the white-noise case keeps most of it."""
+    rng = np.random.default_rng(4301)
+    n = 6000
+    r, u = _zoh_motion(n, rng)
+    x = (r + 1e-9 * rng.standard_normal(n))[None, :]
+    rows = _kin_rows(x, (u + 1e-13 * rng.standard_normal(n))[None, :])[:, : n - 2]
+    full = _segment_noise(rows, n, FS)
+    assert np.array_equal(_segment_noise(rows, n, FS, min_gain=0.0), full)
+    assert not _segment_noise(rows, n, FS, min_gain=1.01).any()
+    gated = _segment_noise(rows, n, FS, min_gain=0.9)
+    assert 0.5 * np.var(full) < np.var(gated) <= np.var(full) * 1.001
 
 
 def test_short_segments_get_no_estimate():
