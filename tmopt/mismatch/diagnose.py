@@ -1269,6 +1269,14 @@ def _implausible(state: State, selected: list) -> tuple[Candidate, str] | None:
     return None
 
 
+def _stiffness_over(fit: FitResult) -> list[str]:
+    """The stiffness names of ``fit`` whose values the data put past
+    :data:`~tmopt.mismatch.plausibility.STIFFNESS_LIMIT` (by BEYOND_Z standard errors; a
+    nominal parameter, so never for being uncertain alone)."""
+    return [n for n in STIFFNESS_NAMES if n in fit.names and
+            beyond_physics(fit.value(n), fit.sigma(n), STIFFNESS_LIMIT, twice=False)]
+
+
 def _stiffness_beyond(data: Data, basis: np.ndarray, state: State, selected: list,
                       settings: Settings) -> tuple[Candidate, str] | None:
     """The selected effect that puts the final model's stiffness beyond physics
@@ -1288,10 +1296,7 @@ def _stiffness_beyond(data: Data, basis: np.ndarray, state: State, selected: lis
     are never blamed: a clipped accelerometer's k2xx of 1.2e-4 came with two of them, and
     taking them out refused a recording that is reported unexplained at x2 (the first
     version: ``test_a_clipped_accelerometer_is_unexplained_at_its_axis_not_refused``)."""
-    def beyond(fit, n: str) -> bool:
-        return beyond_physics(fit.value(n), fit.sigma(n), STIFFNESS_LIMIT, twice=False)
-
-    over = [n for n in STIFFNESS_NAMES if n in state.eq_fit.names and beyond(state.eq_fit, n)]
+    over = _stiffness_over(state.eq_fit)
     if not over:
         return None
     best = None
@@ -1299,7 +1304,7 @@ def _stiffness_beyond(data: Data, basis: np.ndarray, state: State, selected: lis
         if ev.candidate.effect not in EFFECTS:  # an unnamed feature is no name to take out
             continue
         fit = _in_place_of(data, basis, selected, ev, settings).eq_fit
-        if any(beyond(fit, n) for n in over):
+        if set(_stiffness_over(fit)) & set(over):
             continue
         move = sum(abs(state.eq_fit.value(n)) - abs(fit.value(n)) for n in over)
         if best is None or move > best[0]:
@@ -1401,9 +1406,7 @@ def stiffness_note(fit: FitResult) -> str | None:
     gain or an accelerometer scale reads as a stiffness (foreign 180097: a gain the data
     cannot tell from k at its one tone, k1xx 1.5e-5 +- 2e-8 s^-2).  A note, not an
     unexplained channel: what the stiffness absorbed leaves no residual to locate."""
-    over = [f"{n} = {fit.value(n):.3g} +- {fit.sigma(n):.2g} s^-2" for n in STIFFNESS_NAMES
-            if n in fit.names and beyond_physics(fit.value(n), fit.sigma(n),
-                                                 STIFFNESS_LIMIT, twice=False)]  # fmt: skip
+    over = [f"{n} = {fit.value(n):.3g} +- {fit.sigma(n):.2g} s^-2" for n in _stiffness_over(fit)]
     if not over:
         return None
     return (f"stiffness beyond a test mass's (|k| <= {STIFFNESS_LIMIT:g} s^-2): "

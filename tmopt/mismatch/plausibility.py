@@ -524,9 +524,9 @@ BEYOND_Z = 3.0
 #: The physical range of a test mass's stiffness [s^-2]: LISA Pathfinder-like values are
 #: |k| ~ 1e-6..2e-6 (issue 26; Armano et al., PRL 116, 231101 (2016)), the realistic
 #: generator draws -2e-6..2e-6 and the paper's Table 2 uses 1e-7 -- 1e-5 is five times
-#: the widest.  A model that needs more is
-#: absorbing an effect in step with the motion (an actuation gain g at a tone w reads as
-#: dk = -g w^2), not measuring a stiffness (docs/mismatch.md 9.20).
+#: the widest.  A model that needs more is absorbing an effect in step with the motion
+#: (an actuation gain g at a tone w reads as dk = -g w^2), not measuring a stiffness
+#: (docs/mismatch.md 9.20).
 STIFFNESS_LIMIT = 1e-5
 
 
