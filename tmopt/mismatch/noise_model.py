@@ -232,6 +232,10 @@ class NoiseModel:
     coh: np.ndarray | None = None  # (B, C, C)
     red: list[tuple[float, float, float]] = field(default_factory=list)
     taper_fraction: float = TAPER
+    #: (B, C, C) strictly lower: channel j's regression on channels < j per band at
+    #: ``coh_f`` (the ``regression`` cross-spectrum); ``coefs`` are then the innovations'
+    #: log-PSD splines and ``coh`` is None.
+    transfer: np.ndarray | None = None
     _cache: dict = field(default_factory=dict, repr=False)
 
     # ------------------------------------------------------------------ estimation
@@ -239,10 +243,12 @@ class NoiseModel:
     @classmethod
     def estimate(cls, residual: np.ndarray, layout: Layout, fs: float,
                  kind: str = "smoothed", taper_fraction: float = TAPER,
-                 coupled: bool = True) -> NoiseModel:  # fmt: skip
+                 coupled: bool = True, cross: str | None = None) -> NoiseModel:  # fmt: skip
         """Estimate from a residual (C, M) laid out in ``layout``; ``taper_fraction`` of
         each segment is tapered (Tukey; 1 = Hann).  ``coupled=False``: independent
         channels (a diagonal model; no coherence to estimate where none is physical).
+        ``cross``: how coupled channels' cross-spectrum is estimated, ``regression`` or
+        ``coherence`` (default :data:`CROSS_SPECTRUM`; see :func:`_regression_spectrum`).
         Transients are gated out of the estimate (:func:`_transient_gate`), the gate
         found again with the gated model, up to GATE_ROUNDS times: a loud glitch inflates
         the first estimate's low frequencies, its whitened tail is then high-passed away and
@@ -252,8 +258,11 @@ class NoiseModel:
             return cls("white", cov, layout, fs)
         if kind != "smoothed":
             raise ValueError(f"noise kind must be 'smoothed' or 'white'; got {kind!r}")
-        parts = _smoothed_spectrum(residual, layout, fs, taper_fraction, coupled)
-        model = cls("smoothed", cov, layout, fs, *parts, taper_fraction=taper_fraction)
+        cross = CROSS_SPECTRUM if cross is None else cross
+        if cross not in CROSS_KINDS:
+            raise ValueError(f"cross must be one of {CROSS_KINDS}; got {cross!r}")
+        parts = _smoothed_spectrum(residual, layout, fs, taper_fraction, coupled, cross=cross)
+        model = cls._smoothed(cov, layout, fs, parts, taper_fraction)
         gate = None
         for _ in range(GATE_ROUNDS):
             new = _transient_gate(model.whiten(residual), layout, fs)
@@ -264,9 +273,17 @@ class NoiseModel:
                 if np.array_equal(new, gate):
                     return model
             gate = new
-            parts = _smoothed_spectrum(residual, layout, fs, taper_fraction, coupled, gate)
-            model = cls("smoothed", cov, layout, fs, *parts, taper_fraction=taper_fraction)
+            parts = _smoothed_spectrum(residual, layout, fs, taper_fraction, coupled, gate,
+                                       cross)  # fmt: skip
+            model = cls._smoothed(cov, layout, fs, parts, taper_fraction)
         return model
+
+    @classmethod
+    def _smoothed(cls, cov, layout: Layout, fs: float, parts: tuple,
+                  taper_fraction: float) -> NoiseModel:  # fmt: skip
+        knots, coefs, coh_f, coh, transfer = parts
+        return cls("smoothed", cov, layout, fs, knots, coefs, coh_f, coh,
+                   taper_fraction=taper_fraction, transfer=transfer)  # fmt: skip
 
     def with_red(self, residual: np.ndarray) -> NoiseModel:
         """The white spatial part with a power-law red spectrum fitted per channel."""
@@ -278,7 +295,8 @@ class NoiseModel:
         """The same spectrum for another sample layout (e.g. after alignment, or a planned
         run's)."""
         return NoiseModel(self.kind, self.cov, layout, self.fs, self.knots, self.coefs,
-                          self.coh_f, self.coh, list(self.red), self.taper_fraction)
+                          self.coh_f, self.coh, list(self.red), self.taper_fraction,
+                          transfer=self.transfer)  # fmt: skip
 
     # ------------------------------------------------------------------ spectrum
 
@@ -293,6 +311,9 @@ class NoiseModel:
             f_hz = np.asarray(f_hz, float)
             sd = np.exp(0.5 * (_design(np.log(np.maximum(f_hz, 1e-300)), self.knots)
                                @ self.coefs.T))  # (F, C)
+            if self.transfer is not None:  # S = L D L^H, L = (I - B)^-1
+                lmat = np.linalg.inv(np.eye(c) - _interp_bands(f_hz, self.coh_f, self.transfer))
+                return (lmat * (sd**2)[:, None, :]) @ np.conj(np.swapaxes(lmat, 1, 2))
             lf = np.log(np.maximum(f_hz, self.coh_f[0]))
             lb = np.log(self.coh_f)
             coh = np.empty((f_hz.size, c, c), complex)
@@ -600,15 +621,20 @@ def _transient_gate(white: np.ndarray, layout: Layout, fs: float) -> np.ndarray 
 
 
 def _smoothed_spectrum(residual: np.ndarray, layout: Layout, fs: float, fraction: float,
-                       coupled: bool = True, gate: np.ndarray | None = None):
-    """Spline knots, per-channel spline coefficients (C, K), and the coherence bands
-    (centres (B,) [Hz], (B, C, C) unit-diagonal Hermitian); see the module docstring."""
+                       coupled: bool = True, gate: np.ndarray | None = None,
+                       cross: str = "coherence"):  # fmt: skip
+    """Spline knots, per-channel spline coefficients (C, K), the band centres (B,) [Hz]
+    and either the coherence bands ((B, C, C) unit-diagonal Hermitian; see the module
+    docstring) or the regression bands (:func:`_regression_spectrum`): ``(knots, coefs,
+    centres, coh, transfer)``, one of the last two None."""
     f, xf = _pooled_periodograms(residual, layout, fs, fraction, gate)
     knots = _knots(f)
     c = residual.shape[0]
     coefs = np.array([_whittle_spline(f, np.abs(xf[j]) ** 2, knots) for j in range(c)])
     if c == 1 or not coupled:
-        return knots, coefs, np.array([f[0]]), np.eye(c, dtype=complex)[None]
+        return knots, coefs, np.array([f[0]]), np.eye(c, dtype=complex)[None], None
+    if cross == "regression":
+        return (knots, *_regression_spectrum(f, xf, knots, coefs))
     sd = np.exp(0.5 * (_design(np.log(f), knots) @ coefs.T)).T  # (C, F)
     stats = _cross_stats(xf / sd)
     centres, levels = [], []
@@ -617,4 +643,67 @@ def _smoothed_spectrum(residual: np.ndarray, layout: Layout, fs: float, fraction
         levels.append(np.median(stats[:, lo:hi], axis=1) / _LN2)
     coh = _assemble(np.array(levels).T, c)
     coh = coh / np.sqrt(np.einsum("bii,bjj->bij", coh.real, coh.real))  # unit diagonal
-    return knots, coefs, np.array(centres), _floor_psd(coh, 1e-3)
+    return knots, coefs, np.array(centres), _floor_psd(coh, 1e-3), None
+
+
+#: How coupled channels' cross-spectrum is estimated (:meth:`NoiseModel.estimate`):
+#: ``regression`` (:func:`_regression_spectrum`, the default) or ``coherence`` (robust
+#: medians of the standardised channels' coherence per band; rounds 1-44).  Evidence:
+#: docs/mismatch.md 9.21.
+CROSS_KINDS = ("regression", "coherence")
+CROSS_SPECTRUM = "regression"
+#: Passes of the regression's weighted least squares (weights: the innovation's PSD).
+REGRESSION_PASSES = 3
+
+
+def _interp_bands(f_hz: np.ndarray, centres: np.ndarray, bands: np.ndarray) -> np.ndarray:
+    """(B, C, C) band values -> (F, C, C), linear in log f, held beyond the end bands."""
+    lf = np.log(np.maximum(f_hz, centres[0]))
+    lb = np.log(centres)
+    flat = bands.reshape(bands.shape[0], -1)
+    out = np.empty((np.size(f_hz), flat.shape[1]), complex)
+    for k in range(flat.shape[1]):
+        out[:, k] = np.interp(lf, lb, flat[:, k].real) + 1j * np.interp(lf, lb, flat[:, k].imag)
+    return out.reshape(-1, *bands.shape[1:])
+
+
+def _regression_spectrum(f: np.ndarray, xf: np.ndarray, knots: np.ndarray,
+                         coefs: np.ndarray) -> tuple:  # fmt: skip
+    """Cross-spectrum by sequential regression (the modified Cholesky form ``S = L D L^H``
+    of Rosen & Stoffer, Biometrika 94, 335 (2007); Dai & Guo, Biometrika 91, 629 (2004)):
+    channel j's transform is regressed on channels < j's in each quarter-decade band
+    (weighted least squares, weights the inverse innovation PSD, bins that are a line in
+    any channel left out), and the innovation ``X_j - sum_i B_ji X_i`` gets its own
+    log-PSD spline.
+
+    Why not a coherence per band: one red source seen by two channels (a 1/f force noise
+    in both f_B-free rows) has a fixed transfer between them but a coherence that climbs
+    towards 1 within the lowest band; a band's median coherence (0.95 on foreign 180077,
+    where the lowest bins are ~1) leaves the source's power in the whitened difference
+    channel, where any column carrying the same source correlates with it (docs 9.21).
+    Least squares in a band puts its weight where the power is, so the transfer is right
+    where an error would leak most.  Returns ``(innovation coefs (C, K), centres (B,),
+    None, transfer (B, C, C))``."""
+    c = xf.shape[0]
+    design = _design(np.log(f), knots)
+    marg = np.exp(design @ coefs.T).T  # (C, F) marginal PSDs
+    clean = np.all(np.abs(xf) ** 2 < OUTLIER * marg, axis=0)
+    bands = band_edges(f, min_bins=32, per_decade=4)
+    centres = np.array([math.exp(np.mean(np.log(f[lo:hi]))) for lo, hi in bands])
+    transfer = np.zeros((len(bands), c, c), complex)
+    innov = coefs.copy()
+    for j in range(1, c):
+        var = marg[j]
+        for _ in range(REGRESSION_PASSES):
+            for k, (lo, hi) in enumerate(bands):
+                keep = clean[lo:hi]
+                if keep.sum() < 4 * j:
+                    continue
+                w = 1.0 / np.sqrt(var[lo:hi][keep])
+                a = xf[:j, lo:hi][:, keep].T * w[:, None]
+                transfer[k, j, :j] = np.linalg.lstsq(a, xf[j, lo:hi][keep] * w, rcond=None)[0]
+            b = _interp_bands(f, centres, transfer)[:, j, :j]  # (F, j)
+            e = xf[j] - np.einsum("fi,if->f", b, xf[:j])
+            innov[j] = _whittle_spline(f, np.abs(e) ** 2, knots)
+            var = np.exp(design @ innov[j])
+    return innov, centres, None, transfer
