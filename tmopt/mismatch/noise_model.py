@@ -20,9 +20,14 @@ group is modelled as stationary Gaussian noise with a smooth **cross-spectral ma
   and the fit repeated, so a line is not absorbed.  Transients: a glitch of
   matched-filter SNR rho spreads rho^2 over N/2 bins (+4 % for rho = 20, N = 20000) and
   is removed from the residual once the glitch effect is selected.  Channel coupling:
-  the coherence of the standardised channels (Gnanadesikan-Kettenring identity on the
-  periodograms of ``X_i +- X_j`` and ``X_i +- i X_j``, medians over quarter-decade bands
-  / ln 2), interpolated linearly in log f;
+  by default the coherence of the standardised channels (Gnanadesikan-Kettenring
+  identity on the periodograms of ``X_i +- X_j`` and ``X_i +- i X_j``, medians over
+  quarter-decade bands / ln 2), interpolated linearly in log f; or (``cross=
+  "regression"``, an option) sequential regression (the modified Cholesky form ``S = L D
+  L^H``, Rosen & Stoffer, Biometrika 94, 335 (2007)): channel j's transform regressed on
+  channels < j's per quarter-decade band (weighted least squares, line bins left out),
+  the transfer interpolated linearly in log f, each innovation with its own log-PSD
+  spline (:func:`_regression_spectrum`);
 * whiten (:meth:`NoiseModel.whiten`): per segment, taper, transform, multiply by the
   inverse Cholesky factor of ``S(f)`` at each bin (Whittle's circulant approximation),
   transform back: unit-variance white noise when the model holds;
@@ -647,11 +652,13 @@ def _smoothed_spectrum(residual: np.ndarray, layout: Layout, fs: float, fraction
 
 
 #: How coupled channels' cross-spectrum is estimated (:meth:`NoiseModel.estimate`):
-#: ``regression`` (:func:`_regression_spectrum`, the default) or ``coherence`` (robust
-#: medians of the standardised channels' coherence per band; rounds 1-44).  Evidence:
+#: ``coherence`` (robust medians of the standardised channels' coherence per band; the
+#: default) or ``regression`` (:func:`_regression_spectrum`: right for a shared red noise
+#: source, but least squares also takes in a shared deterministic signal -- a clipped
+#: accelerometer became six glitches -- and it costs 2x on such recordings).  Evidence:
 #: docs/mismatch.md 9.21.
 CROSS_KINDS = ("regression", "coherence")
-CROSS_SPECTRUM = "regression"
+CROSS_SPECTRUM = "coherence"
 #: Passes of the regression's weighted least squares (weights: the innovation's PSD).
 REGRESSION_PASSES = 3
 
