@@ -319,13 +319,7 @@ class NoiseModel:
             if self.transfer is not None:  # S = L D L^H, L = (I - B)^-1
                 lmat = np.linalg.inv(np.eye(c) - _interp_bands(f_hz, self.coh_f, self.transfer))
                 return (lmat * (sd**2)[:, None, :]) @ np.conj(np.swapaxes(lmat, 1, 2))
-            lf = np.log(np.maximum(f_hz, self.coh_f[0]))
-            lb = np.log(self.coh_f)
-            coh = np.empty((f_hz.size, c, c), complex)
-            for i in range(c):
-                for j in range(c):
-                    coh[:, i, j] = (np.interp(lf, lb, self.coh[:, i, j].real)
-                                    + 1j * np.interp(lf, lb, self.coh[:, i, j].imag))
+            coh = _interp_bands(f_hz, self.coh_f, self.coh)
             return coh * sd[:, :, None] * sd[:, None, :]
         base = np.broadcast_to(self.cov.astype(complex), (f_hz.size, c, c)).copy()
         if not self.red:
