@@ -215,11 +215,11 @@ def test_a_glitch_between_samples_is_fitted_off_the_grids():
     The kick's error is the width's (about 1.3x it), not the noise's (its standard error
     is 0.03-0.15 %): on 8 fresh noise draws (seeds 15-22) it is 0.1-2.4 % with the
     band-median coherence (mean 1.05 %) and 0.2-2.4 % with the regression (mean 0.91 %,
-    docs/mismatch.md 9.21).  Round one's "1 % on seed 11" held for the coherence by
-    luck; so the check is the median over four draws, with the worst below the old 2.4 %
-    grid error's order.  (On the fresh draws the onset is off by up to 0.58 of a sample
-    and the width by up to 2.0 %, with either estimate: the tolerances below hold on
-    these four draws, not on every draw.)"""
+    docs/mismatch.md 9.21).  So round one's "1 % on seed 11" is not a bound for every
+    draw; the check keeps its tolerances and holds them on four draws (default
+    estimate: 0.25, 0.07, 0.88, 0.01 %; the regression option misses two of them, 1.2
+    and 2.7 %).  On the fresh draws the onset is off by up to 0.58 of a sample and the
+    width by up to 2.0 %, with either estimate."""
     from tmopt.mismatch.effects.glitch import glitch_interval_average
 
     cfg = SimulationConfig(duration=600.0, fb_bias=(1e-10, 1e-10), fb_sigma=1e-10)
@@ -237,7 +237,7 @@ def test_a_glitch_between_samples_is_fitted_off_the_grids():
         assert abs(cand.fixed["decay_s"] / 5.3 - 1) < 0.02, cand.fixed["decay_s"]
         st = fit_state(d, basis, cand.columns, [], False, SETTINGS)
         kick.append(abs(st.eq_fit.coef[-1] / 1e-8 - 1))
-    assert np.median(kick) < 0.01 and max(kick) < 0.03, kick
+    assert max(kick) < 0.01, kick
 
 
 def test_glitch_kicks_match_lisaglitch():
