@@ -213,9 +213,11 @@ def _clipped_x2():
 
 @pytest.fixture(scope="module")
 def clipped() -> tuple[dict, int]:
-    """Its report, and how many of its steps' tests the selection memo served
-    (diagnose._Evaluations.reused, read from the memo of the diagnosis)."""
+    """Its report with the rail samples read as measurements (``mask_rails=False``), and
+    how many of its steps' tests the selection memo served (diagnose._Evaluations.reused,
+    read from the memo of the diagnosis)."""
     import tmopt.mismatch.diagnose as dg
+    from tmopt.mismatch.diagnose import Settings
     from tmopt.mismatch.report import build_report
 
     memos = []
@@ -227,12 +229,57 @@ def clipped() -> tuple[dict, int]:
 
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(dg._Evaluations, "__init__", remember)
-        rep = build_report(diagnose(_clipped_x2()))
+        rep = build_report(diagnose(_clipped_x2(), Settings(mask_rails=False)))
     return rep, sum(m.reused for m in memos)
 
 
-def test_a_clipped_accelerometer_is_unexplained_at_its_axis_not_refused(clipped):
-    """Out of catalogue: the x2 accelerometer clipped at 80 % of its range.  The best
+def test_a_clipped_accelerometer_is_left_out_and_the_rest_diagnosed():
+    """The same recording as diagnosed by default (``Settings.mask_rails``, docs/
+    mismatch.md 9.22): the samples at acc_x2's rail are left out as gaps, the rest is
+    consistent with the model -- no name, no feature --, and the saturation itself is the
+    mismatch, unexplained at x2, with how many samples were left out."""
+    from tmopt.mismatch.fit import drop_samples
+    from tmopt.mismatch.plausibility import rail_samples
+
+    data = _clipped_x2()
+    n_rail = int(rail_samples(data).sum())
+    assert n_rail >= 10
+    rep = build_report(diagnose(data))
+    assert rep["status"] == "diagnosed", rep.get("reason")
+    assert not rep["effects"] and not rep["features"] and not rep["ambiguous"], \
+        rep["conclusion"]  # fmt: skip
+    assert rep["unexplained"] and rep["unexplained_at"]["channels"] == ["x2"]
+    assert f"acc_x2 saturated ({n_rail} samples at its rail)" in rep["conclusion"]
+    used = rep["data_used"]
+    assert used["samples_left_out"] >= n_rail
+    assert used["samples_used"] == data.n - used["samples_left_out"]
+    # the left-out samples are gaps: no segment holds a rail sample, none crosses one
+    kept = drop_samples(data, rail_samples(data), "test")
+    assert kept.n == used["samples_used"]
+    assert not np.isin(kept.time, data.time[rail_samples(data)]).any()
+    for a, b in kept.segments:
+        t = kept.time[a:b]
+        assert np.allclose(np.diff(t), data.dt)
+
+
+def test_a_name_beside_a_clipped_accelerometer_stands_on_the_unclipped_samples():
+    """An actuation gain on x1 (3e-4) beside the clipped x2 accelerometer: on the samples
+    off the rail the gain is named, with no rival.  Read with the clipped samples, every
+    name was made ambiguous with the saturation ("no name is more than part of it")."""
+    from .test_effects import add_force
+
+    data = _clipped_x2()
+    add_force(data, 0, 3e-4 * data.force[0])
+    rep = build_report(diagnose(data))
+    assert [(e["name"], e["channel"]) for e in rep["effects"]] == [("actuation_gain", "x1")], \
+        rep["conclusion"]  # fmt: skip
+    assert not rep["ambiguous"], rep["conclusion"]
+    assert "x2" in rep["unexplained_at"]["channels"]
+
+
+def test_a_clipped_accelerometer_read_as_measured_is_unexplained_at_its_axis(clipped):
+    """Out of catalogue: the x2 accelerometer clipped at 80 % of its range, its rail
+    samples read as measurements (``mask_rails=False``, the behaviour before 9.22).  The best
     catalogue fit was a "readout scale" of ~1e4 -- beyond physics; before, the whole
     recording was refused for it.  That explanation was then taken out, the rest selected
     again, and x2 reported unexplained with no confident name there.  On the true position
@@ -244,7 +291,7 @@ def test_a_clipped_accelerometer_is_unexplained_at_its_axis_not_refused(clipped)
     assert rep["status"] == "diagnosed", rep.get("reason")
     assert rep["unexplained"] and "x2" in rep["unexplained_at"]["channels"]
     assert not [e for e in rep["effects"] if "x2" in e["channel"] or e["channel"] == "all axes"]
-    assert "saturated acc_x2" in rep["conclusion"]
+    assert "saturated acc_x2" in rep["conclusion"]  # the rival every name gets
 
 
 def test_the_rerun_after_a_name_beyond_physics_reuses_tests_and_says_the_same(
@@ -265,7 +312,7 @@ def test_the_rerun_after_a_name_beyond_physics_reuses_tests_and_says_the_same(
         return dg.evaluate(self.data, self.basis, state, self.settings, exclude)
 
     monkeypatch.setattr(dg._Evaluations, "__call__", afresh)
-    fresh = build_report(dg.diagnose(_clipped_x2()))
+    fresh = build_report(dg.diagnose(_clipped_x2(), dg.Settings(mask_rails=False)))
     assert json.dumps(fresh, sort_keys=True, default=str) == \
         json.dumps(rep, sort_keys=True, default=str)  # fmt: skip
 

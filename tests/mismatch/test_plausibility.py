@@ -294,3 +294,35 @@ def test_a_clipped_accelerometer_is_unexplained_at_its_axis_not_refused_as_swapp
     assert sat.status == "unknown"
     assert [s["channel"] for s in sat.values["saturated"]] == ["acc_x1"], sat.detail
     assert check_force_acc(data).status != "fail"
+
+
+def test_dropped_samples_become_gaps_and_short_pieces_go_with_them():
+    """``fit.drop_samples`` (the rail mask's, docs/mismatch.md 9.22): the segments split at
+    each dropped sample, a piece shorter than MIN_SEGMENT between two drops is left out
+    too, a gap already there stays one, and usage counts what is left out."""
+    import math
+
+    from tmopt.mismatch.fit import MIN_SEGMENT, Data, drop_samples
+    from tmopt.physics.geometry import Geometry
+
+    n, fs = 1000, 4.0
+    t = np.arange(n + 100) / fs
+    t = np.delete(t, np.arange(500, 600))  # a gap already there: samples 0-499, 500-999
+    rng = np.random.default_rng(1)
+    data = Data(time=t, fs=fs, x=rng.standard_normal((4, n)), acc=rng.standard_normal((4, n)),
+                force=rng.standard_normal((4, n)),
+                geometry=Geometry(math.radians(60), math.radians(120)),
+                segments=[(0, 500), (500, n)], usage={"samples_recorded": n + 100})  # fmt: skip
+    drop = np.zeros(n, bool)
+    drop[[200, 200 + MIN_SEGMENT // 2, 700]] = True  # a short piece between the first two
+    out = drop_samples(data, drop, "test")
+    assert out.segments == [(0, 200), (200, 467), (467, 667), (667, 966)]
+    keep = np.r_[0:200, 233:500, 500:700, 701:n]  # 201-232: shorter than MIN_SEGMENT
+    assert np.array_equal(out.time, t[keep])
+    assert np.array_equal(out.x, data.x[:, keep]) and np.array_equal(out.force,
+                                                                     data.force[:, keep])
+    assert out.usage["samples_used"] == 966 and out.usage["samples_left_out"] == n - 966
+    assert out.usage["segments_dropped"] == 1 and out.usage["segments_used"] == 4
+    assert "3 samples left out as gaps (test)" in out.notes[-1]
+    with pytest.raises(ValueError, match="drop must have shape"):
+        drop_samples(data, drop[:-1], "test")

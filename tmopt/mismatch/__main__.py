@@ -49,6 +49,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="put the stiffness on the readout as recorded, not on the true "
                         "position with the readout noise taken out (on by default, "
                         "docs/mismatch.md 9.19)")  # fmt: skip
+    p.add_argument("--no-mask-rails", action="store_true",
+                   help="read the samples where a measured channel sits at its rail (an ADC "
+                        "saturating) as measurements, not leave them out as gaps (left out "
+                        "by default, docs/mismatch.md 9.22)")  # fmt: skip
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--design-next", action="store_true",
                    help="also design the next excitation into --out (python -m tmopt.design)")
@@ -78,7 +82,8 @@ def main(argv: list[str] | None = None) -> int:
                         shape_search=not args.no_shape_search,
                         shape_placements=not args.no_shape_placements,
                         pairs=not args.no_pairs,
-                        true_position=not args.no_true_position)  # fmt: skip
+                        true_position=not args.no_true_position,
+                        mask_rails=not args.no_mask_rails)  # fmt: skip
     dg = diagnose(data_from_recording(rec), settings)
     rep = write_report(dg, args.out, plots=not args.no_plots)
     print(rep["conclusion"])

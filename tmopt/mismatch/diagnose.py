@@ -45,6 +45,7 @@ from tmopt.mismatch.fit import (
     align_force_timing,
     align_kinematics,
     choose_acc_convention,
+    drop_samples,
     equation_target,
     kinematic_target,
     nominal_equation_columns,
@@ -57,11 +58,13 @@ from tmopt.mismatch.fit import (
 from tmopt.mismatch.locate import Locations, locate
 from tmopt.mismatch.noise_model import RED_EXPONENTS, NoiseModel, fit_red
 from tmopt.mismatch.plausibility import (
+    MIN_SAMPLES,
     STIFFNESS_LIMIT,
     Verdict,
     beyond_physics,
     implausible_effects,
     precheck,
+    rail_samples,
     saturations,
 )
 
@@ -115,6 +118,12 @@ class Settings:
     # 9.19): k n_r is correlated with the force the loop makes from n_r, and named an
     # actuation gain on clean recordings (kernel 170028: GLR 16.0 -> 0.3)
     true_position: bool = True
+    # the samples where a measured channel sits at its rail (an ADC saturating,
+    # :func:`tmopt.mismatch.plausibility.saturations`) left out as gaps before the fit: a
+    # clipped sample is the rail, not a measurement, and read as one it was named a DAC
+    # quantisation, fitted as a readout scale of 1e5, or refused (docs 9.22).  The
+    # saturation itself stays reported, its axis unexplained
+    mask_rails: bool = True
 
     def __post_init__(self) -> None:
         if not (0 < self.alpha < 1 and 0 < self.locate_alpha < 1):
@@ -127,7 +136,7 @@ class Settings:
         if self.noise not in ("coloured", "white"):
             raise ValueError(f"noise must be 'coloured' or 'white'; got {self.noise!r}")
         for name in ("generic", "joint", "rejudge", "in_place", "shape_search",
-                     "shape_placements", "pairs", "true_position"):
+                     "shape_placements", "pairs", "true_position", "mask_rails"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name} must be True or False; got {getattr(self, name)!r}")
         if not set(self.lowfreq) <= set(cal.LOWFREQ_NULL) - {"shape"}:
@@ -1319,11 +1328,13 @@ def _stiffness_beyond(data: Data, basis: np.ndarray, state: State, selected: lis
                   "that the stiffness absorbs")  # fmt: skip
 
 
-def _refused(data: Data, settings: Settings, verdict: Verdict, reason: str) -> Diagnosis:
-    """A refusal; a measured channel at a rail (:func:`saturations`) is named as the
-    likely cause and its axis kept as unexplained (a clipped accelerometer breaks Eq. 10
-    on its axis: the refusal's slope or implausible size follows from it)."""
-    sat = saturations(data)
+def _refused(data: Data, settings: Settings, verdict: Verdict, reason: str,
+             sat: list[dict] | None = None) -> Diagnosis:
+    """A refusal; a measured channel at a rail (``sat``, else :func:`saturations` of
+    ``data``) is named as the likely cause and its axis kept as unexplained (a clipped
+    accelerometer breaks Eq. 10 on its axis: the refusal's slope or implausible size
+    follows from it)."""
+    sat = saturations(data) if sat is None else sat
     if sat:
         reason += " (" + "; ".join(f"{s['channel']} sits at its rail on {s['fraction']:.1%} "
                                    "of its samples" for s in sat) + ": a saturated sensor)"
@@ -1375,10 +1386,18 @@ def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
         return _refused(data, settings, verdict, verdict.reason)
     if data.true_position != settings.true_position:
         data = replace(data, true_position=settings.true_position)
+    sat = saturations(data)
+    if sat and settings.mask_rails:
+        data = drop_samples(data, rail_samples(data), "at a rail: " + ", ".join(
+            s["channel"] for s in sat))  # fmt: skip
+        if data.n < MIN_SAMPLES:
+            return _refused(data, settings, verdict,
+                            f"cannot diagnose: only {data.n} usable samples away from the "
+                            f"rails (at least {MIN_SAMPLES} needed)", sat)  # fmt: skip
     raw, stiffness, nuisance, moved = data, None, [], []
     for attempt in range(1 + MAX_STIFFNESS_REDOS):
         dg = _diagnose_prepared(*prepare(copy.deepcopy(raw), stiffness, nuisance), settings,
-                                verdict)  # fmt: skip
+                                verdict, sat)  # fmt: skip
         if dg.refused or attempt == MAX_STIFFNESS_REDOS:
             break
         change = _final_model_kinematics(dg)
@@ -1461,8 +1480,10 @@ def _final_model_kinematics(dg: Diagnosis) -> tuple[np.ndarray, list[Column], st
 
 
 def _diagnose_prepared(data: Data, basis: np.ndarray, settings: Settings,
-                       verdict: Verdict) -> Diagnosis:
-    """:func:`diagnose` on prepared data (clocks aligned, exact kinematics fixed)."""
+                       verdict: Verdict, sat: list[dict]) -> Diagnosis:
+    """:func:`diagnose` on prepared data (clocks aligned, exact kinematics fixed);
+    ``sat``: the recording's saturated channels (:func:`saturations`, found before their
+    rail samples were left out)."""
     before = fit_state(data, basis, [], [], False, settings)
     # an explanation beyond physics (a parameter past the effect's range) is no name: it
     # is taken out and the selection rerun; its channel is reported unexplained (a
@@ -1479,7 +1500,7 @@ def _diagnose_prepared(data: Data, basis: np.ndarray, settings: Settings,
             break
         if len(beyond) >= MAX_IMPLAUSIBLE:  # the ones taken out before are said too
             data.notes += [_not_named(b["reason"]) for b in beyond]
-            return _refused(data, settings, verdict, bad[1])
+            return _refused(data, settings, verdict, bad[1], sat)
         beyond.append({"key": bad[0].key, "channel": bad[0].channel,
                        "group": bad[0].group, "reason": bad[1]})  # fmt: skip
     beyond = _still_wanted(data, beyond, selected, state, settings, tests)
@@ -1493,7 +1514,7 @@ def _diagnose_prepared(data: Data, basis: np.ndarray, settings: Settings,
                               placements=settings.shape_placements,
                               settings=settings),  # fmt: skip
         weak=weak_names(selected, lifted=rejudged(data, basis, selected, settings, n_tests)),
-        beyond=beyond, saturated=saturations(data),
+        beyond=beyond, saturated=sat,
         not_rivals=needed_in_place(data, basis, selected, settings, n_tests),
     )  # fmt: skip
 

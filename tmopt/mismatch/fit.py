@@ -74,6 +74,7 @@ __all__ = [
     "output_error",
     "kinematic_coefficients",
     "align_kinematics",
+    "drop_samples",
     "choose_acc_convention",
     "MIN_SEGMENT",
 ]
@@ -345,6 +346,53 @@ def _shifted(data: Data, lag: int, what: str = "force") -> Data:
                   force=shifted["force"], ref=cut(data.ref), omega=cut(data.omega),
                   omega_dot=cut(data.omega_dot), notes=list(data.notes), segments=bounds,
                   usage=dict(data.usage))  # fmt: skip
+    out.__dict__.pop("_tones", None)
+    out.__dict__.pop("_x_eq", None)
+    return out
+
+
+def drop_samples(data: Data, drop: np.ndarray, why: str) -> Data:
+    """``data`` without the samples where ``drop`` (N,) is True, each left out as a gap:
+    the segments split there, and pieces shorter than the rule of :func:`_valid_segments`
+    (:data:`MIN_SEGMENT`, :data:`SEGMENT_FRACTION` of the longest) are left out too.
+    ``usage`` counts what was left out and a note says ``why`` (the caller's words)."""
+    drop = np.asarray(drop, bool)
+    if drop.shape != (data.n,):
+        raise ValueError(f"drop must have shape ({data.n},); got {drop.shape}")
+    runs = []
+    for a, b in data.segments:
+        keep = np.flatnonzero(~drop[a:b]) + a
+        if keep.size:  # split where a dropped sample sits between two kept ones
+            cut = np.flatnonzero(np.diff(keep) > 1) + 1
+            runs += [(int(r[0]), int(r[-1]) + 1) for r in np.split(keep, cut)]
+    longest = max((b - a for a, b in runs), default=0)
+    shortest = max(MIN_SEGMENT, int(SEGMENT_FRACTION * longest))
+    kept = [(a, b) for a, b in runs if b - a >= shortest]
+    idx = np.concatenate([np.arange(a, b) for a, b in kept]) if kept else \
+        np.zeros(0, np.int64)  # fmt: skip
+    bounds, at = [], 0
+    for a, b in kept:
+        bounds.append((at, at + b - a))
+        at += b - a
+
+    def take(arr):
+        return None if arr is None else arr[..., idx]
+
+    usage = dict(data.usage)
+    recorded = int(usage.get("samples_recorded", data.n))
+    usage.update({"samples_used": int(idx.size), "segments_used": len(kept),
+                  "segments_dropped": int(usage.get("segments_dropped", 0))
+                  + len(runs) - len(kept),
+                  "samples_left_out": int(usage.get("samples_left_out", 0))
+                  + data.n - int(idx.size),
+                  "fraction_used": idx.size / recorded if recorded else 0.0})  # fmt: skip
+    note = (f"{int(drop.sum())} samples left out as gaps ({why}); {len(runs) - len(kept)} "
+            f"piece(s) between them shorter than {shortest} samples left out too: analysed "
+            f"{len(kept)} segment(s), {idx.size} of {recorded} samples")  # fmt: skip
+    out = replace(data, time=data.time[idx], x=data.x[:, idx], acc=data.acc[:, idx],
+                  force=data.force[:, idx], ref=take(data.ref), omega=take(data.omega),
+                  omega_dot=take(data.omega_dot), notes=list(data.notes) + [note],
+                  segments=bounds, usage=usage)  # fmt: skip
     out.__dict__.pop("_tones", None)
     out.__dict__.pop("_x_eq", None)
     return out

@@ -49,7 +49,7 @@ import numpy as np
 from tmopt.mismatch.fit import AXES, Data, null_basis, tone_instrument
 
 __all__ = ["MIN_SAMPLES", "Check", "Verdict", "precheck", "implausible_effects",
-           "loop_attribution", "saturations", "beyond_physics", "STIFFNESS_LIMIT"]
+           "loop_attribution", "saturations", "rail_samples", "beyond_physics", "STIFFNESS_LIMIT"]
 
 #: A measured channel (accelerometer or readout) is saturated -- an ADC at its rail -- when
 #: at least RAIL_MIN of its samples hold exactly its largest (or smallest) value and that
@@ -157,6 +157,16 @@ def saturations(data: Data) -> list[dict]:
             if levels:
                 out.append({"channel": f"{kind}{name}", "axis": name, "levels": levels,
                             "samples": int(mask.sum()), "fraction": float(mask.mean())})
+    return out
+
+
+def rail_samples(data: Data) -> np.ndarray:
+    """(N,) True where any measured channel sits at its rail (:func:`rail_mask`): the
+    samples :func:`tmopt.mismatch.diagnose.diagnose` leaves out as gaps."""
+    out = np.zeros(data.n, bool)
+    for arr in (data.acc, data.x):
+        for row in arr:
+            out |= rail_mask(row)[0]
     return out
 
 

@@ -151,11 +151,14 @@ def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
     # once its stiffness drift of 10 s^-2 was out, as a cross-coupling y1<-x1)
     out += [{"name": f"explanation beyond physics taken out ({b['key']})",
              "channel": b["channel"], "delta_bic": None} for b in dg.beyond]  # fmt: skip
-    # a measured channel at a rail (an ADC saturating): the fit read clipped samples as
-    # measurements, and through the loop on every axis (a clipped accelerometer was named
-    # a DAC quantisation of all axes: k40137, k50136), so no name is more than part of it
-    out += [{"name": f"saturated {s['channel']} ({s['samples']} samples at its rail)",
-             "channel": s["axis"], "delta_bic": None} for s in dg.saturated]  # fmt: skip
+    # a measured channel at a rail (an ADC saturating) read as measurements: the fit read
+    # clipped samples through the loop on every axis (a clipped accelerometer was named a
+    # DAC quantisation of all axes: k40137, k50136), so no name is more than part of it.
+    # With its rail samples left out (Settings.mask_rails, the default) the fit never
+    # sees them, and a name found on the rest stands on its own
+    if dg.saturated and not dg.settings.mask_rails:
+        out += [{"name": f"saturated {s['channel']} ({s['samples']} samples at its rail)",
+                 "channel": s["axis"], "delta_bic": None} for s in dg.saturated]  # fmt: skip
     mine = _axes(ev.candidate.channel)
     kin = ev.candidate.group == "kinematic"  # its structure is in the readout residual
     left = [c for c in dg.locations_after.channels
@@ -256,10 +259,20 @@ def conclusion(rep: dict) -> str:
             [f"{a['name']} [{a['channel']}]"] + [f"{r['name']} [{r['channel']}]"
                                                  for r in a["rivals"]]))  # fmt: skip
     words += [f["description"] for f in rep.get("features", [])]
+    words += [f"unexplained: {s['channel']} saturated ({s['samples']} samples at its rail)"
+              for s in _saturated(rep)]  # fmt: skip
     loc = rep["locations_unexplained"]
     if loc["frequency_hz"] or loc["time_s"]:
         words.append("unexplained mismatch at " + _fmt_loc(loc))
     return "; ".join(words)
+
+
+def _saturated(rep: dict) -> list[dict]:
+    """The saturated channels the plausibility checks found (``check_saturation``)."""
+    for c in rep.get("checks", []):
+        if c.get("name") == "saturation":
+            return list((c.get("values") or {}).get("saturated", []))
+    return []
 
 
 def _diagnostics(dg: Diagnosis) -> dict:
@@ -310,7 +323,8 @@ def _settings(dg: Diagnosis) -> dict:
             "rejudge": dg.settings.rejudge, "in_place": dg.settings.in_place,
             "shape_search": dg.settings.shape_search,
             "shape_placements": dg.settings.shape_placements,
-            "pairs": dg.settings.pairs, "true_position": dg.settings.true_position}  # fmt: skip
+            "pairs": dg.settings.pairs, "true_position": dg.settings.true_position,
+            "mask_rails": dg.settings.mask_rails}  # fmt: skip
 
 
 def build_report(dg: Diagnosis) -> dict:
