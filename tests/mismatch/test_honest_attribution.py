@@ -213,11 +213,10 @@ def _clipped_x2():
 
 @pytest.fixture(scope="module")
 def clipped() -> tuple[dict, int]:
-    """Its report with the rail samples read as measurements (``mask_rails=False``), and
-    how many of its steps' tests the selection memo served (diagnose._Evaluations.reused,
-    read from the memo of the diagnosis)."""
+    """Its report (by default: the rail samples read as measurements, since reading them
+    does not refuse it), and how many of its steps' tests the selection memo served
+    (diagnose._Evaluations.reused, read from the memo of the diagnosis)."""
     import tmopt.mismatch.diagnose as dg
-    from tmopt.mismatch.diagnose import Settings
     from tmopt.mismatch.report import build_report
 
     memos = []
@@ -229,57 +228,63 @@ def clipped() -> tuple[dict, int]:
 
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(dg._Evaluations, "__init__", remember)
-        rep = build_report(diagnose(_clipped_x2(), Settings(mask_rails=False)))
+        rep = build_report(diagnose(_clipped_x2()))
     return rep, sum(m.reused for m in memos)
 
 
-def test_a_clipped_accelerometer_is_left_out_and_the_rest_diagnosed():
-    """The same recording as diagnosed by default (``Settings.mask_rails``, docs/
-    mismatch.md 9.22): the samples at acc_x2's rail are left out as gaps, the rest is
-    consistent with the model -- no name, no feature --, and the saturation itself is the
-    mismatch, unexplained at x2, with how many samples were left out."""
+def test_a_clipped_accelerometer_masked_leaves_the_rest_consistent():
+    """The same recording with its rail samples left out as gaps (``rails="mask"``,
+    docs/mismatch.md 9.22): the rest is consistent with the model -- no name, no
+    feature --, the saturation itself is the mismatch, unexplained at x2, and the report
+    says how many samples were left out."""
+    from tmopt.mismatch.diagnose import Settings
     from tmopt.mismatch.fit import drop_samples
     from tmopt.mismatch.plausibility import rail_samples
 
     data = _clipped_x2()
-    n_rail = int(rail_samples(data).sum())
-    assert n_rail >= 10
-    rep = build_report(diagnose(data))
+    rail = rail_samples(data)
+    assert rail.sum() >= 10
+    rep = build_report(diagnose(data, Settings(rails="mask")))
     assert rep["status"] == "diagnosed", rep.get("reason")
     assert not rep["effects"] and not rep["features"] and not rep["ambiguous"], \
         rep["conclusion"]  # fmt: skip
     assert rep["unexplained"] and rep["unexplained_at"]["channels"] == ["x2"]
-    assert f"acc_x2 saturated ({n_rail} samples at its rail)" in rep["conclusion"]
+    assert f"acc_x2 saturated ({int(rail.sum())} samples at its rail)" in rep["conclusion"]
     used = rep["data_used"]
-    assert used["samples_left_out"] >= n_rail
+    assert used["samples_left_out"] >= rail.sum()
     assert used["samples_used"] == data.n - used["samples_left_out"]
     # the left-out samples are gaps: no segment holds a rail sample, none crosses one
-    kept = drop_samples(data, rail_samples(data), "test")
+    kept = drop_samples(data, rail, "test")
     assert kept.n == used["samples_used"]
-    assert not np.isin(kept.time, data.time[rail_samples(data)]).any()
+    assert not np.isin(kept.time, data.time[rail]).any()
     for a, b in kept.segments:
-        t = kept.time[a:b]
-        assert np.allclose(np.diff(t), data.dt)
+        assert np.allclose(np.diff(kept.time[a:b]), data.dt)
 
 
-def test_a_name_beside_a_clipped_accelerometer_stands_on_the_unclipped_samples():
-    """An actuation gain on x1 (3e-4) beside the clipped x2 accelerometer: on the samples
-    off the rail the gain is named, with no rival.  Read with the clipped samples, every
-    name was made ambiguous with the saturation ("no name is more than part of it")."""
-    from .test_effects import add_force
+def test_a_recording_refused_for_its_clipped_samples_is_diagnosed_without_them(monkeypatch):
+    """Benchmark recording foreign 170137 (a set already read, eighteenth run): acc_x2
+    clipped at its 90 % quantile.  Read as measurements, the clipped samples make the best
+    explanation beyond physics twice over and the recording was refused.  By default
+    (``rails="fallback"``) it is then diagnosed again with them left out: no name, x2
+    unexplained, and the note says why."""
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[2] / "experiments"))
+    import mismatch_realistic as mr
 
-    data = _clipped_x2()
-    add_force(data, 0, 3e-4 * data.force[0])
-    rep = build_report(diagnose(data))
-    assert [(e["name"], e["channel"]) for e in rep["effects"]] == [("actuation_gain", "x1")], \
-        rep["conclusion"]  # fmt: skip
-    assert not rep["ambiguous"], rep["conclusion"]
+    rec, truth = mr.case_recording("foreign", 170137)
+    assert [o["name"] for o in truth["out_of_catalogue"]] == ["acc_clipping"]
+    rep = build_report(diagnose(data_from_recording(rec)))
+    assert rep["status"] == "diagnosed", rep.get("reason")
+    assert any("diagnosed again with them left out" in n and "cannot diagnose" in n
+               for n in rep["notes"]), rep["notes"]  # fmt: skip
+    assert rep["data_used"]["rails_left_out_after"] == "refusal"
+    assert not rep["effects"], rep["conclusion"]
     assert "x2" in rep["unexplained_at"]["channels"]
+    assert "acc_x2 saturated" in rep["conclusion"]
 
 
 def test_a_clipped_accelerometer_read_as_measured_is_unexplained_at_its_axis(clipped):
     """Out of catalogue: the x2 accelerometer clipped at 80 % of its range, its rail
-    samples read as measurements (``mask_rails=False``, the behaviour before 9.22).  The best
+    samples read as measurements (``rails="fallback"``: reading them does not refuse it).  The best
     catalogue fit was a "readout scale" of ~1e4 -- beyond physics; before, the whole
     recording was refused for it.  That explanation was then taken out, the rest selected
     again, and x2 reported unexplained with no confident name there.  On the true position
@@ -312,7 +317,7 @@ def test_the_rerun_after_a_name_beyond_physics_reuses_tests_and_says_the_same(
         return dg.evaluate(self.data, self.basis, state, self.settings, exclude)
 
     monkeypatch.setattr(dg._Evaluations, "__call__", afresh)
-    fresh = build_report(dg.diagnose(_clipped_x2(), dg.Settings(mask_rails=False)))
+    fresh = build_report(dg.diagnose(_clipped_x2()))
     assert json.dumps(fresh, sort_keys=True, default=str) == \
         json.dumps(rep, sort_keys=True, default=str)  # fmt: skip
 

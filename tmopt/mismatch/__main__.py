@@ -9,7 +9,7 @@ from pathlib import Path
 
 from tmopt.design.cli import add_design_options, check_design_options
 from tmopt.mismatch.calibration import FAMILY_ALPHA, LOCATE_ALPHA
-from tmopt.mismatch.diagnose import Settings, diagnose
+from tmopt.mismatch.diagnose import RAILS, Settings, diagnose
 from tmopt.mismatch.fit import data_from_recording
 from tmopt.mismatch.report import write_report
 from tmopt.physics.recording import RecordingError, read_recording
@@ -49,10 +49,11 @@ def _parser() -> argparse.ArgumentParser:
                    help="put the stiffness on the readout as recorded, not on the true "
                         "position with the readout noise taken out (on by default, "
                         "docs/mismatch.md 9.19)")  # fmt: skip
-    p.add_argument("--no-mask-rails", action="store_true",
-                   help="read the samples where a measured channel sits at its rail (an ADC "
-                        "saturating) as measurements, not leave them out as gaps (left out "
-                        "by default, docs/mismatch.md 9.22)")  # fmt: skip
+    p.add_argument("--rails", choices=RAILS, default="fallback",
+                   help="samples where a measured channel sits at its rail (an ADC "
+                        "saturating): read as measurements, left out as gaps (mask), or "
+                        "left out only when reading them refuses the recording (fallback, "
+                        "the default; docs/mismatch.md 9.22)")  # fmt: skip
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--design-next", action="store_true",
                    help="also design the next excitation into --out (python -m tmopt.design)")
@@ -83,7 +84,7 @@ def main(argv: list[str] | None = None) -> int:
                         shape_placements=not args.no_shape_placements,
                         pairs=not args.no_pairs,
                         true_position=not args.no_true_position,
-                        mask_rails=not args.no_mask_rails)  # fmt: skip
+                        rails=args.rails)  # fmt: skip
     dg = diagnose(data_from_recording(rec), settings)
     rep = write_report(dg, args.out, plots=not args.no_plots)
     print(rep["conclusion"])

@@ -71,6 +71,10 @@ from tmopt.mismatch.plausibility import (
 __all__ = ["Settings", "Evaluation", "State", "Diagnosis", "diagnose", "fit_state"]
 
 
+#: How samples at a measured channel's rail are treated (``Settings.rails``).
+RAILS = ("read", "fallback", "mask")
+
+
 @dataclass(frozen=True)
 class Settings:
     """``noise``: ``coloured`` (default; a robust cross-spectral matrix per residual group,
@@ -119,11 +123,14 @@ class Settings:
     # actuation gain on clean recordings (kernel 170028: GLR 16.0 -> 0.3)
     true_position: bool = True
     # the samples where a measured channel sits at its rail (an ADC saturating,
-    # :func:`tmopt.mismatch.plausibility.saturations`) left out as gaps before the fit: a
-    # clipped sample is the rail, not a measurement, and read as one it was named a DAC
-    # quantisation, fitted as a readout scale of 1e5, or refused (docs 9.22).  The
-    # saturation itself stays reported, its axis unexplained
-    mask_rails: bool = True
+    # :func:`tmopt.mismatch.plausibility.saturations`): ``read`` as measurements (a name
+    # beside them gets the saturation as its rival); ``mask``: left out as gaps; or
+    # ``fallback``: read, and left out only when reading them makes the recording
+    # unfit to diagnose (a clipped accelerometer's "readout scale" of 1e5 refused it).
+    # Not ``mask`` by default: the gaps cut a record into many short pieces, and a clean
+    # recording so cut raises false alarms (docs 9.22).  The saturation itself is always
+    # reported, its axis unexplained
+    rails: str = "fallback"
 
     def __post_init__(self) -> None:
         if not (0 < self.alpha < 1 and 0 < self.locate_alpha < 1):
@@ -136,9 +143,11 @@ class Settings:
         if self.noise not in ("coloured", "white"):
             raise ValueError(f"noise must be 'coloured' or 'white'; got {self.noise!r}")
         for name in ("generic", "joint", "rejudge", "in_place", "shape_search",
-                     "shape_placements", "pairs", "true_position", "mask_rails"):
+                     "shape_placements", "pairs", "true_position"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name} must be True or False; got {getattr(self, name)!r}")
+        if self.rails not in RAILS:
+            raise ValueError(f"rails must be one of {', '.join(RAILS)}; got {self.rails!r}")
         if not set(self.lowfreq) <= set(cal.LOWFREQ_NULL) - {"shape"}:
             raise ValueError(f"lowfreq must name nulls among 'ramp', 'curvature'; got "
                              f"{self.lowfreq!r}")  # fmt: skip
@@ -1387,13 +1396,36 @@ def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
     if data.true_position != settings.true_position:
         data = replace(data, true_position=settings.true_position)
     sat = saturations(data)
-    if sat and settings.mask_rails:
-        data = drop_samples(data, rail_samples(data), "at a rail: " + ", ".join(
-            s["channel"] for s in sat))  # fmt: skip
-        if data.n < MIN_SAMPLES:
-            return _refused(data, settings, verdict,
-                            f"cannot diagnose: only {data.n} usable samples away from the "
-                            f"rails (at least {MIN_SAMPLES} needed)", sat)  # fmt: skip
+    if sat and settings.rails == "mask":
+        return _diagnose_masked(data, settings, verdict, sat)
+    dg = _diagnose_data(data, settings, verdict, sat)
+    if dg.refused and sat and settings.rails == "fallback":
+        return _diagnose_masked(data, settings, verdict, sat, dg.refused)
+    return dg
+
+
+def _diagnose_masked(data: Data, settings: Settings, verdict: Verdict, sat: list[dict],
+                     refusal: str | None = None) -> Diagnosis:
+    """:func:`diagnose` with the samples where a measured channel sits at its rail left
+    out as gaps (``Settings.rails``); ``refusal``: why the diagnosis reading them as
+    measurements was refused (``fallback``)."""
+    data = drop_samples(data, rail_samples(data), "at a rail: " + ", ".join(
+        s["channel"] for s in sat))  # fmt: skip
+    if refusal:
+        data.notes.append(f"with the rail samples read as measurements: {refusal}; "
+                          "diagnosed again with them left out")  # fmt: skip
+        data.usage["rails_left_out_after"] = "refusal"
+    if data.n < MIN_SAMPLES:
+        return _refused(data, settings, verdict,
+                        f"cannot diagnose: only {data.n} usable samples away from the "
+                        f"rails (at least {MIN_SAMPLES} needed)", sat)  # fmt: skip
+    return _diagnose_data(data, settings, verdict, sat)
+
+
+def _diagnose_data(data: Data, settings: Settings, verdict: Verdict,
+                   sat: list[dict]) -> Diagnosis:
+    """:func:`diagnose` after the checks: prepared, diagnosed, and redone with the final
+    model's kinematics when they change (:func:`_final_model_kinematics`)."""
     raw, stiffness, nuisance, moved = data, None, [], []
     for attempt in range(1 + MAX_STIFFNESS_REDOS):
         dg = _diagnose_prepared(*prepare(copy.deepcopy(raw), stiffness, nuisance), settings,

@@ -151,14 +151,13 @@ def _rivals(ev, alts, dg: Diagnosis | None = None) -> list[dict]:
     # once its stiffness drift of 10 s^-2 was out, as a cross-coupling y1<-x1)
     out += [{"name": f"explanation beyond physics taken out ({b['key']})",
              "channel": b["channel"], "delta_bic": None} for b in dg.beyond]  # fmt: skip
-    # a measured channel at a rail (an ADC saturating) read as measurements: the fit read
-    # clipped samples through the loop on every axis (a clipped accelerometer was named a
-    # DAC quantisation of all axes: k40137, k50136), so no name is more than part of it.
-    # With its rail samples left out (Settings.mask_rails, the default) the fit never
-    # sees them, and a name found on the rest stands on its own
-    if dg.saturated and not dg.settings.mask_rails:
-        out += [{"name": f"saturated {s['channel']} ({s['samples']} samples at its rail)",
-                 "channel": s["axis"], "delta_bic": None} for s in dg.saturated]  # fmt: skip
+    # a measured channel at a rail (an ADC saturating): read as measurements, the fit
+    # reads clipped samples through the loop on every axis (a clipped accelerometer was
+    # named a DAC quantisation of all axes: k40137, k50136); left out as gaps, the record
+    # falls into short pieces that raise names on clean recordings too (docs 9.22).  So
+    # either way no name is more than part of it
+    out += [{"name": f"saturated {s['channel']} ({s['samples']} samples at its rail)",
+             "channel": s["axis"], "delta_bic": None} for s in dg.saturated]  # fmt: skip
     mine = _axes(ev.candidate.channel)
     kin = ev.candidate.group == "kinematic"  # its structure is in the readout residual
     left = [c for c in dg.locations_after.channels
@@ -324,7 +323,7 @@ def _settings(dg: Diagnosis) -> dict:
             "shape_search": dg.settings.shape_search,
             "shape_placements": dg.settings.shape_placements,
             "pairs": dg.settings.pairs, "true_position": dg.settings.true_position,
-            "mask_rails": dg.settings.mask_rails}  # fmt: skip
+            "rails": dg.settings.rails}  # fmt: skip
 
 
 def build_report(dg: Diagnosis) -> dict:
