@@ -62,6 +62,7 @@ from tmopt.mismatch.plausibility import (
     STIFFNESS_LIMIT,
     Verdict,
     beyond_physics,
+    check_fragmentation,
     implausible_effects,
     precheck,
     rail_samples,
@@ -1395,6 +1396,7 @@ def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
         return _refused(data, settings, verdict, verdict.reason)
     if data.true_position != settings.true_position:
         data = replace(data, true_position=settings.true_position)
+    data = _cautioned(data, verdict.checks)
     sat = saturations(data)
     if sat and settings.rails == "mask":
         return _diagnose_masked(data, settings, verdict, sat)
@@ -1402,6 +1404,14 @@ def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
     if dg.refused and sat and settings.rails == "fallback":
         return _diagnose_masked(data, settings, verdict, sat, dg.refused)
     return dg
+
+
+def _cautioned(data: Data, checks: list) -> Data:
+    """``data`` with a caution note for a record cut into many short segments
+    (:func:`tmopt.mismatch.plausibility.check_fragmentation`), a copy when one is added."""
+    extra = [f"caution: {c.detail}" for c in checks
+             if c.name == "fragmentation" and c.status == "unknown"]  # fmt: skip
+    return replace(data, notes=list(data.notes) + extra) if extra else data
 
 
 def _diagnose_masked(data: Data, settings: Settings, verdict: Verdict, sat: list[dict],
@@ -1415,6 +1425,7 @@ def _diagnose_masked(data: Data, settings: Settings, verdict: Verdict, sat: list
         data.notes.append(f"with the rail samples read as measurements: {refusal}; "
                           "diagnosed again with them left out")  # fmt: skip
         data.usage["rails_left_out_after"] = "refusal"
+    data = _cautioned(data, [check_fragmentation(data)])
     if data.n < MIN_SAMPLES:
         return _refused(data, settings, verdict,
                         f"cannot diagnose: only {data.n} usable samples away from the "
