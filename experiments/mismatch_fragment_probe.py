@@ -13,7 +13,8 @@ recording (calibration seeds < 40000) with its own gaps replaced by K random NaN
   coherence of the two f_B-free rows, at 25 log-spaced frequencies;
 * ``oracle`` -- the cut recording diagnosed with its own noise estimate, then with the
   noise model estimated on the uncut residual (its spectrum, the cut layout): whether the
-  estimate or the rest of the machinery raises the alarm.
+  estimate or the rest of the machinery raises the alarm; ``--part psd`` or
+  ``coherence`` takes only the uncut PSDs or only its coherence (the rest its own).
 
 ``rails`` takes a benchmark ``acc_clipping`` recording (``mismatch_realistic.cases``):
 the clean recording of the same scenario and noise, diagnosed whole and with the clipped
@@ -76,7 +77,7 @@ def psd(backend: str, seed: int, k: int) -> None:
             print(f"  {fi:9.2e}  {ratio}{extra}")
 
 
-def oracle(backend: str, seed: int, k: int) -> None:
+def oracle(backend: str, seed: int, k: int, part: str = "all") -> None:
     import tmopt.mismatch.noise_model as nm
     from tmopt.mismatch.diagnose import diagnose
     from tmopt.mismatch.report import build_report
@@ -91,16 +92,22 @@ def oracle(backend: str, seed: int, k: int) -> None:
 
     def uncut(cls, residual, layout, fs, *args, **kwargs):
         c = residual.shape[0]
-        if c in models and layout.n != models[c].layout.n:
-            return replace(models[c], layout=layout, _cache={})
-        return original(cls, residual, layout, fs, *args, **kwargs)
+        if c not in models or layout.n == models[c].layout.n:
+            return original(cls, residual, layout, fs, *args, **kwargs)
+        take = {"all": {"knots", "coefs", "coh_f", "coh", "transfer"},
+                "psd": {"knots", "coefs"}, "coherence": {"coh_f", "coh"}}[part]
+        own = original(cls, residual, layout, fs, *args, **kwargs)
+        if own.kind != models[c].kind or own.transfer is not None:
+            return own
+        return replace(own, _cache={}, **{n: getattr(models[c], n) for n in take})
 
     nm.NoiseModel.estimate = classmethod(uncut)
     try:
         rep = build_report(diagnose(copy.deepcopy(cut)))
     finally:
         nm.NoiseModel.estimate = classmethod(original)
-    print(f"{spec} uncut spectrum: {rep['conclusion']}", flush=True)
+    print(f"{spec} uncut {'spectrum' if part == 'all' else part}: {rep['conclusion']}",
+          flush=True)  # fmt: skip
 
 
 def rails(backend: str, seed: int) -> None:
@@ -132,6 +139,9 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     p.add_argument("mode", choices=("psd", "oracle", "rails"))
     p.add_argument("recordings", nargs="+", help="backend:seed[:K]")
+    p.add_argument("--part", choices=("all", "psd", "coherence"), default="all",
+                   help="oracle: take from the uncut model its PSDs and coherence (all), "
+                        "its PSDs only, or its coherence only")  # fmt: skip
     a = p.parse_args(argv)
     for spec in a.recordings:
         parts = spec.split(":")
@@ -149,7 +159,7 @@ def main(argv: list[str] | None = None) -> int:
         if a.mode == "psd":
             psd(parts[0], seed, int(parts[2]))
         elif a.mode == "oracle":
-            oracle(parts[0], seed, int(parts[2]))
+            oracle(parts[0], seed, int(parts[2]), a.part)
         else:
             rails(parts[0], seed)
     return 0
