@@ -9,7 +9,8 @@ sensor left out (docs/mismatch.md 9.22) -- is analysed on its gap-free segments,
 whitened on its own.  Here each clean recording of both simulators (calibration seeds
 from ``--seed-base``; the benchmark's sets start at 40000) is diagnosed with its own gaps
 taken out and ``K`` NaN runs of 2-30 s (log-uniform) put at uniform random times instead,
-for each ``K`` of ``--gaps`` (the same draws for every K: a paired comparison).  Prints
+for each ``K`` of ``--gaps`` (the same scenario and noise for every K, only the gaps
+differ: a paired comparison).  Prints
 the false-alarm rate per K with its 95 % interval, the median number and length of the
 segments analysed, and what raised each alarm.  Rows stream to ``gap_rows.jsonl``
 (resumable).

@@ -240,12 +240,30 @@ def _refine_tone(x: np.ndarray, fs: float, f0: float) -> float:
     return float(grid[int(np.argmax(power))])
 
 
+def _shortest_kept(longest: int) -> int:
+    """The shortest gap-free piece kept beside a longest one of ``longest`` samples
+    (:data:`MIN_SEGMENT`, :data:`SEGMENT_FRACTION`)."""
+    return max(MIN_SEGMENT, int(SEGMENT_FRACTION * longest))
+
+
+def _gathered(pieces: list[tuple[int, int]]) -> tuple[np.ndarray, list[tuple[int, int]]]:
+    """The sample indices of ``pieces`` ([(start, stop)]) in order, and their bounds in the
+    gathered array."""
+    idx = np.concatenate([np.arange(a, b) for a, b in pieces]) if pieces else \
+        np.zeros(0, dtype=np.int64)  # fmt: skip
+    bounds, at = [], 0
+    for a, b in pieces:
+        bounds.append((at, at + b - a))
+        at += b - a
+    return idx, bounds
+
+
 def _valid_segments(rec) -> tuple[list[slice], dict, list[str]]:
     """Gap-free segments of at least MIN_SEGMENT samples, the usage summary and notes."""
     n = rec.n_samples
     segs = rec.segments(1)
     longest = max((s.stop - s.start for s in segs), default=0)
-    shortest = max(MIN_SEGMENT, int(SEGMENT_FRACTION * longest))
+    shortest = _shortest_kept(longest)
     kept = [s for s in segs if s.stop - s.start >= shortest]
     valid = int(sum(s.stop - s.start for s in segs))
     used = int(sum(s.stop - s.start for s in kept))
@@ -278,12 +296,7 @@ def data_from_recording(rec) -> Data:
     (``held`` or ``mean``) fixes the accelerometer convention of the kinematic check.
     """
     segs, usage, notes = _valid_segments(rec)
-    idx = np.concatenate([np.arange(s.start, s.stop) for s in segs]) if segs else \
-        np.zeros(0, dtype=np.int64)
-    bounds, at = [], 0
-    for s in segs:
-        bounds.append((at, at + s.stop - s.start))
-        at += s.stop - s.start
+    idx, bounds = _gathered([(s.start, s.stop) for s in segs])
 
     def take(name: str) -> np.ndarray:
         return np.asarray(rec[name], float)[idx]
@@ -365,15 +378,9 @@ def drop_samples(data: Data, drop: np.ndarray, why: str) -> Data:
         if keep.size:  # split where a dropped sample sits between two kept ones
             cut = np.flatnonzero(np.diff(keep) > 1) + 1
             runs += [(int(r[0]), int(r[-1]) + 1) for r in np.split(keep, cut)]
-    longest = max((b - a for a, b in runs), default=0)
-    shortest = max(MIN_SEGMENT, int(SEGMENT_FRACTION * longest))
+    shortest = _shortest_kept(max((b - a for a, b in runs), default=0))
     kept = [(a, b) for a, b in runs if b - a >= shortest]
-    idx = np.concatenate([np.arange(a, b) for a, b in kept]) if kept else \
-        np.zeros(0, np.int64)  # fmt: skip
-    bounds, at = [], 0
-    for a, b in kept:
-        bounds.append((at, at + b - a))
-        at += b - a
+    idx, bounds = _gathered(kept)
 
     def take(arr):
         return None if arr is None else arr[..., idx]
