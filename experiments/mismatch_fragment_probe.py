@@ -1,6 +1,7 @@
 """Why a record cut into short pieces raises false alarms (docs/mismatch.md 9.22).
 
     python experiments/mismatch_fragment_probe.py psd kernel:38202:32
+    python experiments/mismatch_fragment_probe.py bias kernel:38202:32
     python experiments/mismatch_fragment_probe.py oracle foreign:38202:32 [...]
     python experiments/mismatch_fragment_probe.py rails kernel:190135 [foreign:180137 ...]
 
@@ -11,6 +12,11 @@ recording (calibration seeds < 40000) with its own gaps replaced by K random NaN
 * ``psd`` -- the nominal fit's noise models of the cut and the uncut recording (the same
   noise): the ratio cut/uncut of every channel's PSD and, for the equation group, the
   coherence of the two f_B-free rows, at 25 log-spaced frequencies;
+* ``bias`` -- the cut recording's nominal equation-group residual, per frequency band and
+  segment length: the mean periodogram over the uncut model's PSD, beside what the
+  taper alone (``none``) and the taper with the fitted offset (``gls``) are expected to
+  leave under that PSD (``tmopt.mismatch.expected_periodogram``): how much of a low
+  bin's deficit the offsets explain;
 * ``oracle`` -- the cut recording diagnosed with its own noise estimate, then with the
   noise model estimated on the uncut residual (its spectrum, the cut layout): whether the
   estimate or the rest of the machinery raises the alarm; ``--part psd`` or
@@ -77,6 +83,48 @@ def psd(backend: str, seed: int, k: int) -> None:
             print(f"  {fi:9.2e}  {ratio}{extra}")
 
 
+BIAS_BANDS = ((0.002, 0.005), (0.005, 0.01), (0.01, 0.02), (0.02, 0.05), (0.05, 0.15))
+
+
+def bias(backend: str, seed: int, k: int) -> None:
+    from tmopt.mismatch.expected_periodogram import SegmentKernel, autocovariance
+    from tmopt.mismatch.noise_model import taper
+
+    cut, whole = _cut_and_whole(backend, seed, k)
+    st_cut, st_whole = _nominal_state(cut), _nominal_state(whole)
+    res, layout, fs = st_cut.eq_fit.residual, st_cut.eq_noise.layout, cut.fs
+    n_grid = 1 << int(np.ceil(np.log2(8 * whole.n)))
+    grid = np.fft.rfftfreq(n_grid, 1 / fs)
+    model = np.real(np.einsum("fii->fi", st_whole.eq_noise.matrix(np.maximum(grid, 1e-6))))
+    lengths = [b - a for a, b in layout.bounds]
+    print(f"{backend}:{seed}:{k}: {len(lengths)} segments, median {np.median(lengths):.0f} "
+          f"samples; eq rows: band [Hz], segment length, bins, periodogram / uncut PSD, "
+          f"expected with the taper (none) and the fitted offset (gls)")  # fmt: skip
+    for ch in range(res.shape[0]):
+        acov = autocovariance(model[:, ch])
+        for lo, hi in BIAS_BANDS:
+            for name, short in (("< 512", True), (">= 512", False)):
+                obs, none, gls, psd_at = [], [], [], []
+                for a, b in layout.bounds:
+                    if (b - a < 512) != short:
+                        continue
+                    f = np.fft.rfftfreq(b - a, 1 / fs)
+                    sel = (f >= lo) & (f < hi)
+                    if not sel.any():
+                        continue
+                    kern = SegmentKernel(taper(b - a))
+                    psd_seg = np.interp(f, grid, model[:, ch])
+                    obs += list(np.abs(np.fft.rfft(res[ch, a:b] * kern.w)[sel]) ** 2 / kern.norm)
+                    none += list(kern.expected(acov, "none")[sel])
+                    gls += list(kern.expected(acov, "gls", psd_seg)[sel])
+                    psd_at += list(psd_seg[sel])
+                if obs:
+                    ref = float(np.mean(psd_at))
+                    print(f"  row {ch + 1} {lo:.3f}-{hi:.3f} {name:>6}: {len(obs):4d} bins  "
+                          f"{np.mean(obs) / ref:5.2f}  none {np.mean(none) / ref:5.2f}  "
+                          f"gls {np.mean(gls) / ref:5.2f}")  # fmt: skip
+
+
 def oracle(backend: str, seed: int, k: int, part: str = "all") -> None:
     import tmopt.mismatch.noise_model as nm
     from tmopt.mismatch.diagnose import diagnose
@@ -137,7 +185,7 @@ def rails(backend: str, seed: int) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    p.add_argument("mode", choices=("psd", "oracle", "rails"))
+    p.add_argument("mode", choices=("psd", "bias", "oracle", "rails"))
     p.add_argument("recordings", nargs="+", help="backend:seed[:K]")
     p.add_argument("--part", choices=("all", "psd", "coherence"), default="all",
                    help="oracle: take from the uncut model its PSDs and coherence (all), "
@@ -153,11 +201,13 @@ def main(argv: list[str] | None = None) -> int:
             return 2
         seed = int(parts[1])
         if a.mode != "rails" and seed >= 40000:
-            print(f"error: {spec!r}: psd and oracle take calibration seeds (< 40000)",
+            print(f"error: {spec!r}: psd, bias and oracle take calibration seeds (< 40000)",
                   file=sys.stderr)  # fmt: skip
             return 2
         if a.mode == "psd":
             psd(parts[0], seed, int(parts[2]))
+        elif a.mode == "bias":
+            bias(parts[0], seed, int(parts[2]))
         elif a.mode == "oracle":
             oracle(parts[0], seed, int(parts[2]), a.part)
         else:
