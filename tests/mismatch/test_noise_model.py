@@ -117,3 +117,56 @@ def test_local_whitening_has_unit_variance_up_to_the_segment_ends_and_sees_a_bur
     assert time_windows(old, t, FS, 0.01)[0] == []  # blind: the taper is ~0 there
     wins = time_windows(new, t, FS, 0.01)[0]
     assert wins and all(2150 <= a and b <= 2310 for a, b in wins), wins
+
+
+def _short_pieces(x: np.ndarray, m: int) -> tuple[np.ndarray, Layout]:
+    """``x`` cut into m-sample segments, each with its offset fitted as the diagnosis fits
+    it (generalised least squares under the model: white here)."""
+    from tmopt.mismatch.expected_periodogram import offset_weights
+
+    u = offset_weights(taper(m), "gls", np.ones(m // 2 + 1))
+    bounds = tuple((a, a + m) for a in range(0, x.size - m + 1, m))
+    y = x[: bounds[-1][1]].copy()
+    for a, b in bounds:
+        y[a:b] -= y[a:b] @ u
+    return y, Layout(bounds, y.size)
+
+
+def test_the_gate_reads_short_tapered_pieces_against_their_taper():
+    """White noise in 100-sample Hann pieces: the middle of every piece has variance ~1,
+    its ends ~0; read against one median window the gate took out 30 % of the samples."""
+    from tmopt.mismatch.noise_model import _transient_gate
+
+    rng = np.random.default_rng(11)
+    y, layout = _short_pieces(rng.standard_normal(20000), 100)
+    model = NoiseModel.estimate(y[None], layout, 1.0, coupled=False)
+    white = model.whiten(y[None])
+    gate = _transient_gate(white, layout, 1.0, model.whitened_variance())
+    assert gate is None or np.mean(gate < 1) < 0.02
+    burst = white.copy()
+    burst[0, 5020:5060] *= 12.0  # a transient in the middle of a piece is still gated
+    gated = _transient_gate(burst, layout, 1.0, model.whitened_variance())
+    assert gated is not None and gated[5030:5050].max() == 0.0
+
+
+def test_offsets_fitted_on_short_pieces_do_not_pull_the_estimate_down():
+    """The offset of a 100-sample Hann piece takes ~60 % of its lowest bin's power (the
+    expected periodogram, tests/mismatch/test_expected_periodogram.py); the estimate puts
+    it back (``noise_model.DEBIAS``), so white noise is estimated white there."""
+    import tmopt.mismatch.noise_model as nm
+
+    f = np.fft.rfftfreq(100)[1:4]
+    levels = {}
+    for kind in ("off", "offset"):
+        ratios = []
+        for seed in range(4):
+            y, layout = _short_pieces(2.0 * np.random.default_rng(seed).standard_normal(20000), 100)
+            old, nm.DEBIAS = nm.DEBIAS, kind
+            try:
+                model = NoiseModel.estimate(y[None], layout, 1.0, coupled=False)
+            finally:
+                nm.DEBIAS = old
+            ratios.append(np.real(model.matrix(f)[:, 0, 0]) / 4.0)
+        levels[kind] = np.median(ratios, axis=0)
+    np.testing.assert_allclose(levels["offset"], 1.0, atol=0.15)
+    assert levels["off"][0] < 0.6  # what the offsets took out, read as the PSD
