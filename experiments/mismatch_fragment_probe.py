@@ -2,6 +2,7 @@
 
     python experiments/mismatch_fragment_probe.py psd kernel:38202:32
     python experiments/mismatch_fragment_probe.py bias kernel:38202:32
+    python experiments/mismatch_fragment_probe.py cost foreign:38206:0
     python experiments/mismatch_fragment_probe.py oracle foreign:38202:32 [...]
     python experiments/mismatch_fragment_probe.py rails kernel:190135 [foreign:180137 ...]
 
@@ -17,6 +18,9 @@ recording (calibration seeds < 40000) with its own gaps replaced by K random NaN
   taper alone (``none``) and the taper with the fitted offset (``gls``) are expected to
   leave under that PSD (``tmopt.mismatch.expected_periodogram``): how much of a low
   bin's deficit the offsets explain;
+* ``cost`` -- what ``noise_model.DEBIAS`` costs: the uncut recording's nominal fit and
+  whole diagnosis with ``offset`` over ``off``, alternated three times in one process
+  (median ratio);
 * ``oracle`` -- the cut recording diagnosed with its own noise estimate, then with the
   noise model estimated on the uncut residual (its spectrum, the cut layout): whether the
   estimate or the rest of the machinery raises the alarm; ``--part psd`` or
@@ -125,6 +129,32 @@ def bias(backend: str, seed: int, k: int) -> None:
                           f"gls {np.mean(gls) / ref:5.2f}")  # fmt: skip
 
 
+def cost(backend: str, seed: int, k: int) -> None:
+    import time
+
+    import tmopt.mismatch.noise_model as nm
+    from tmopt.mismatch.diagnose import diagnose
+
+    _, whole = _cut_and_whole(backend, seed, k)
+    jobs = {"nominal fit": lambda: _nominal_state(whole),
+            "diagnosis": lambda: diagnose(copy.deepcopy(whole))}  # fmt: skip
+    original = nm.DEBIAS
+    try:
+        for name, job in jobs.items():
+            took = {"off": [], "offset": []}
+            for _ in range(3):
+                for kind in took:
+                    nm.DEBIAS = kind
+                    t0 = time.perf_counter()
+                    job()
+                    took[kind].append(time.perf_counter() - t0)
+            ratio = float(np.median(np.array(took["offset"]) / np.array(took["off"])))
+            print(f"{backend}:{seed} ({whole.n} samples) {name}: offset / off = {ratio:.2f} "
+                  f"(median of 3; off {np.median(took['off']):.2f} s)", flush=True)
+    finally:
+        nm.DEBIAS = original
+
+
 def oracle(backend: str, seed: int, k: int, part: str = "all") -> None:
     import tmopt.mismatch.noise_model as nm
     from tmopt.mismatch.diagnose import diagnose
@@ -185,7 +215,7 @@ def rails(backend: str, seed: int) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    p.add_argument("mode", choices=("psd", "bias", "oracle", "rails"))
+    p.add_argument("mode", choices=("psd", "bias", "cost", "oracle", "rails"))
     p.add_argument("recordings", nargs="+", help="backend:seed[:K]")
     p.add_argument("--part", choices=("all", "psd", "coherence"), default="all",
                    help="oracle: take from the uncut model its PSDs and coherence (all), "
@@ -201,13 +231,16 @@ def main(argv: list[str] | None = None) -> int:
             return 2
         seed = int(parts[1])
         if a.mode != "rails" and seed >= 40000:
-            print(f"error: {spec!r}: psd, bias and oracle take calibration seeds (< 40000)",
+            print(f"error: {spec!r}: psd, bias, cost and oracle take calibration seeds "
+                  "(< 40000)",
                   file=sys.stderr)  # fmt: skip
             return 2
         if a.mode == "psd":
             psd(parts[0], seed, int(parts[2]))
         elif a.mode == "bias":
             bias(parts[0], seed, int(parts[2]))
+        elif a.mode == "cost":
+            cost(parts[0], seed, int(parts[2]))
         elif a.mode == "oracle":
             oracle(parts[0], seed, int(parts[2]), a.part)
         else:
