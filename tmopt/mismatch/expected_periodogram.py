@@ -3,9 +3,9 @@
 A periodogram bin of an m-sample segment is not the PSD at its frequency: it is the PSD
 seen through the window's spectral kernel, and -- because every segment's offset is
 fitted (``fit.nominal_equation_columns``) -- with the part that the offset takes out
-removed.  For a long segment the difference is negligible; for a segment of a few hundred
-samples under a red spectrum its lowest bins hold 2-7x less than the PSD (docs/mismatch.md
-9.22), and a Whittle fit that reads them as the PSD pulls the estimate down there.  The
+removed.  For a long segment the difference is negligible; in a piece of ~100 samples the
+fitted offset takes up to half of the lowest bin (docs/mismatch.md 9.23), and a Whittle
+fit that reads such bins as the PSD pulls the estimate down there.  The
 *debiased Whittle likelihood* (Sykulski, Olhede, Guillaumin, Lilly & Early, Biometrika
 106, 251 (2019)) compares each bin with its expectation under the model instead; this
 module computes that expectation, exactly, from the model's autocovariance:

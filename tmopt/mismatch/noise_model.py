@@ -250,12 +250,14 @@ class NoiseModel:
     @classmethod
     def estimate(cls, residual: np.ndarray, layout: Layout, fs: float,
                  kind: str = "smoothed", taper_fraction: float = TAPER,
-                 coupled: bool = True, cross: str | None = None) -> NoiseModel:  # fmt: skip
+                 coupled: bool = True, cross: str | None = None,
+                 debias: str | None = None) -> NoiseModel:  # fmt: skip
         """Estimate from a residual (C, M) laid out in ``layout``; ``taper_fraction`` of
         each segment is tapered (Tukey; 1 = Hann).  ``coupled=False``: independent
         channels (a diagonal model; no coherence to estimate where none is physical).
         ``cross``: how coupled channels' cross-spectrum is estimated, ``regression`` or
         ``coherence`` (default :data:`CROSS_SPECTRUM`; see :func:`_regression_spectrum`).
+        ``debias``: how the spline meets the pooled periodogram (default :data:`DEBIAS`).
         Transients are gated out of the estimate (:func:`_transient_gate`), the gate
         found again with the gated model, up to GATE_ROUNDS times: a loud glitch inflates
         the first estimate's low frequencies, its whitened tail is then high-passed away and
@@ -268,7 +270,11 @@ class NoiseModel:
         cross = CROSS_SPECTRUM if cross is None else cross
         if cross not in CROSS_KINDS:
             raise ValueError(f"cross must be one of {CROSS_KINDS}; got {cross!r}")
-        parts = _smoothed_spectrum(residual, layout, fs, taper_fraction, coupled, cross=cross)
+        debias = DEBIAS if debias is None else debias
+        if debias not in DEBIAS_KINDS:
+            raise ValueError(f"debias must be one of {DEBIAS_KINDS}; got {debias!r}")
+        parts = _smoothed_spectrum(residual, layout, fs, taper_fraction, coupled, cross=cross,
+                                   debias=debias)  # fmt: skip
         model = cls._smoothed(cov, layout, fs, parts, taper_fraction)
         gate = None
         for _ in range(GATE_ROUNDS):
@@ -281,7 +287,7 @@ class NoiseModel:
                     return model
             gate = new
             parts = _smoothed_spectrum(residual, layout, fs, taper_fraction, coupled, gate,
-                                       cross)  # fmt: skip
+                                       cross, debias)  # fmt: skip
             model = cls._smoothed(cov, layout, fs, parts, taper_fraction)
         return model
 
@@ -527,8 +533,8 @@ def _pooled_periodograms(residual: np.ndarray, layout: Layout, fs: float, fracti
 #:   (generalised least squares, as the fit's offset columns are) over its expectation
 #:   without: only what the fit takes out is put back, so the estimate keeps the tapered
 #:   periodogram's leakage that :meth:`NoiseModel.whiten` shares (a restricted-likelihood
-#:   correction; on a record cut into ~100-sample pieces the offsets take 10-35 % of the
-#:   lowest bins);
+#:   correction; in a piece of ~100 samples the offset takes up to half of the lowest
+#:   bin);
 #: * ``full`` -- the debiased Whittle likelihood of Sykulski et al. (Biometrika 106, 251
 #:   (2019)): every bin against its expectation, leakage included, so the estimate is the
 #:   process's PSD -- which the whitening of a tapered segment then does not match (the
@@ -657,8 +663,8 @@ def _transient_gate(white: np.ndarray, layout: Layout, fs: float,
     (:meth:`NoiseModel.whitened_variance`, the taper squared); each window's power is read
     against it.  Without it, a record cut into ~100-sample Hann-tapered pieces had the
     middles of its pieces (variance ~1) read against a median window of ~0.4, and the gate
-    took out 30 % of white noise -- and 2-9 % of clean flight-like records whose median
-    piece was ~100 samples (docs/mismatch.md 9.23)."""
+    took out 26-31 % of white noise -- and 2-9 % of the samples of a clean flight-like
+    record cut into ~100-sample pieces (k38202:32; docs/mismatch.md 9.23)."""
     c, m = white.shape
     w = max(8, int(round(GATE_WINDOW_S * fs)))
     if expected is None:
@@ -697,7 +703,7 @@ def _transient_gate(white: np.ndarray, layout: Layout, fs: float,
 
 def _smoothed_spectrum(residual: np.ndarray, layout: Layout, fs: float, fraction: float,
                        coupled: bool = True, gate: np.ndarray | None = None,
-                       cross: str = "coherence"):  # fmt: skip
+                       cross: str = "coherence", debias: str = "off"):  # fmt: skip
     """Spline knots, per-channel spline coefficients (C, K), the band centres (B,) [Hz]
     and either the coherence bands ((B, C, C) unit-diagonal Hermitian; see the module
     docstring) or the regression bands (:func:`_regression_spectrum`): ``(knots, coefs,
@@ -707,11 +713,9 @@ def _smoothed_spectrum(residual: np.ndarray, layout: Layout, fs: float, fraction
     c = residual.shape[0]
     power = np.abs(xf) ** 2
     coefs = np.array([_whittle_spline(f, power[j], knots) for j in range(c)])
-    if DEBIAS not in DEBIAS_KINDS:
-        raise ValueError(f"DEBIAS must be one of {DEBIAS_KINDS}; got {DEBIAS!r}")
-    if DEBIAS != "off":
+    if debias != "off":
         for _ in range(DEBIAS_ROUNDS):
-            bias = _debias_factors(f, knots, coefs, pooling, fs, DEBIAS)
+            bias = _debias_factors(f, knots, coefs, pooling, fs, debias)
             coefs = np.array([_whittle_spline(f, power[j] / bias[j], knots) for j in range(c)])
         xf = xf / np.sqrt(bias)  # the cross-spectrum, from the corrected transforms
     if c == 1 or not coupled:
