@@ -201,8 +201,8 @@ def check_length(data: Data) -> Check:
 #: 9.22), and on held-out seeds 20/88, 3/56 and 6/96 -- the noise model's low
 #: frequencies, estimated from pieces too short to resolve them, came out 2-7x low.  With
 #: each piece's fitted offset put back into the equation group's estimate
-#: (``noise_model.DEBIAS``, 9.23) they are 10/46 below 256 samples on fresh seeds (16/46
-#: before, the same recordings), 2/42 at 256-511 and 1/32 above: fewer, not gone.
+#: (``noise_model.DEBIAS``, 9.23) they are 22/118 below 256 samples (36/118 before, the
+#: same recordings), 4/78 at 256-511 and 2/44 above: fewer, not gone.
 FRAGMENT_SAMPLES = 256
 
 
@@ -218,8 +218,8 @@ def check_fragmentation(data: Data) -> Check:
     return Check("fragmentation", "unknown",
                  f"the record is cut into {len(lengths)} gap-free segments of median {med:.0f} "
                  f"samples (< {FRAGMENT_SAMPLES}): the noise model's lowest frequencies come "
-                 "from pieces too short to resolve them, and on clean recordings so cut 10 "
-                 "in 46 raised a false alarm (docs/mismatch.md 9.23) -- a finding here needs "
+                 "from pieces too short to resolve them, and on clean recordings so cut 22 "
+                 "in 118 raised a false alarm (docs/mismatch.md 9.23) -- a finding here needs "
                  "a longer uninterrupted stretch to confirm it", values)  # fmt: skip
 
 
