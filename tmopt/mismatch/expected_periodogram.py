@@ -87,6 +87,7 @@ class SegmentKernel:
         wf = sfft.rfft(w, self.pad)
         self.rho = sfft.irfft(np.abs(wf) ** 2, self.pad)[:m]  # sum_t w_t w_(t+tau)
         self.wk = sfft.rfft(w)  # W_k on the segment's grid
+        self.fit_wk = self.wk if fit_window is None else sfft.rfft(self.fit_w)
         self.norm = float(np.sum(w**2))
 
     def offset_weights(self, offset: str, psd: np.ndarray | None = None) -> np.ndarray | None:
@@ -103,11 +104,11 @@ class SegmentKernel:
         if psd is None or np.size(psd) != m // 2 + 1:
             raise ValueError(f"offset 'gls' needs psd on the segment's rfft grid "
                              f"({m // 2 + 1} bins)")  # fmt: skip
-        ratio = sfft.rfft(w) / np.maximum(psd, 1e-300)
+        ratio = self.fit_wk / np.maximum(psd, 1e-300)
         ratio[0] = 0.0
         g = sfft.irfft(ratio, m) * m  # sum over the full spectrum, Hermitian halves
-        wk = np.abs(sfft.rfft(w)) ** 2 / np.maximum(psd, 1e-300)
-        z = float(2 * np.sum(wk[1:]) - (wk[-1] if m % 2 == 0 else 0.0))
+        weight = np.real(np.conj(self.fit_wk) * ratio)  # |W_k|^2 / S_k, 0 at DC
+        z = float(2 * np.sum(weight) - (weight[-1] if m % 2 == 0 else 0.0))
         return w * g / z
 
     def _toeplitz_times(self, acov: np.ndarray, u: np.ndarray) -> np.ndarray:
