@@ -1,0 +1,177 @@
+"""The kinematic group's statistic under the alternative's noise model (docs/mismatch.md
+9.24; :func:`tmopt.mismatch.diagnose._kin_alternative_group`).
+
+    python experiments/mismatch_kin_alternative.py null --seed-base 37060 --n 60 \
+        --out results/mismatch_kin_alternative/null.jsonl
+    python experiments/mismatch_kin_alternative.py summary \
+        results/mismatch_kin_alternative/null.jsonl
+    python experiments/mismatch_kin_alternative.py case kernel:220066 foreign:220064 ...
+    python experiments/mismatch_kin_alternative.py cost kernel:220000 foreign:220001
+
+* ``null`` -- clean flight-like recordings of both simulators (calibration seeds < 40000),
+  the nominal fit: every kinematic candidate's statistic ``L`` under the null's noise model
+  and ``L_alt`` under the alternative's (one row per recording, JSON lines, resumable);
+* ``summary`` -- from those rows: the ratio ``L_alt / L``, the largest ``L_alt``, the tail
+  counts of ``max(L, L_alt / c)`` above chi^2's points against the null's own, and the
+  ``c`` at which no candidate reaches the selection's level (:data:`LEVEL`) -- the rule of
+  ``calibration.KIN_REFIT_INFLATION``;
+* ``case`` -- a benchmark recording (``backend:seed``): its three kinematic candidates
+  with the largest ``L_alt``, both statistics;
+* ``cost`` -- a whole diagnosis with and without the alternative (``Settings.kin_refit``),
+  alternated three times in one process: the median ratio.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy import stats
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+#: The selection's level for one candidate: chi^2_1 at FAMILY_ALPHA over the catalogue's
+#: size (~150 candidates a step).
+CATALOGUE_SIZE = 150
+
+
+def _level() -> float:
+    from tmopt.mismatch import calibration as cal
+
+    return float(stats.chi2.isf(cal.FAMILY_ALPHA / CATALOGUE_SIZE, 1))
+
+
+def statistics_of(rec) -> list[tuple[str, int, float, float | None]]:
+    """``(key, dof, L, L_alt)`` of every kinematic candidate of the recording's nominal fit."""
+    from tmopt.mismatch.diagnose import (
+        Settings,
+        _kin_alternative_group,
+        _kin_candidates,
+        fit_state,
+        prepare,
+        residual_groups,
+    )
+    from tmopt.mismatch.fit import data_from_recording
+
+    d, basis = prepare(data_from_recording(rec))
+    st = Settings()
+    s = fit_state(d, basis, [], [], False, st)
+    cands = _kin_candidates(d, basis, s, st)
+    g = residual_groups(d, s)["kinematic"]
+    alt = _kin_alternative_group(d, s, cands, st)
+    return [(c.key, len(c.columns), g.glr(c.columns), alt.glr(c.columns) if alt else None)
+            for c in cands]  # fmt: skip
+
+
+def null(seed_base: int, n: int, out: Path) -> None:
+    from tmopt.mismatch.realistic import draw_scenario, realistic_recording
+
+    out.parent.mkdir(parents=True, exist_ok=True)
+    done = {(r["backend"], r["seed"]) for r in map(json.loads, out.open())} \
+        if out.exists() else set()  # fmt: skip
+    with out.open("a") as fh:
+        for i in range(n):
+            for b in ("kernel", "foreign"):
+                seed = seed_base + i
+                if (b, seed) in done:
+                    continue
+                rec, _ = realistic_recording(draw_scenario(seed, b), (), (), seed, b)
+                rows = statistics_of(rec)
+                fh.write(json.dumps({"backend": b, "seed": seed, "rows": rows}) + "\n")
+                fh.flush()
+                top = max((r[3] or 0.0) for r in rows) if rows else 0.0
+                print(f"{b} {seed}: {len(rows)} candidates, largest L_alt {top:.2f}", flush=True)
+
+
+def summary(paths: list[str]) -> None:
+    rows = [json.loads(x) for p in paths for x in open(p)]
+    c_rows = [(r["backend"], r["seed"], *x) for r in rows for x in r["rows"] if x[3] is not None]
+    dof = np.array([x[3] for x in c_rows])
+    lam = np.array([x[4] for x in c_rows])
+    alt = np.array([x[5] for x in c_rows])
+    print(f"{len(rows)} recordings, {len(c_rows)} kinematic candidates")
+    ok = lam > 1.0
+    r = alt[ok] / lam[ok]
+    print(f"L_alt / L where L > 1: median {np.median(r):.3f}, 90 % {np.quantile(r, 0.9):.3f}, "
+          f"99 % {np.quantile(r, 0.99):.3f}, max {r.max():.3f}")  # fmt: skip
+    order = np.argsort(-alt)[:5]
+    print("largest L_alt: " + "; ".join(f"{c_rows[i][0]} {c_rows[i][1]} {c_rows[i][2]} "
+                                         f"L {lam[i]:.2f} L_alt {alt[i]:.2f}" for i in order))
+    cs = (1.0, 2.0, 4.0, 7.25)
+    print("tail counts above chi^2_dof's point at q (expected n q; L alone; max(L, L_alt/c) "
+          f"for c in {cs}):")  # fmt: skip
+    for q in (0.01, 0.003, 0.001):
+        thr = stats.chi2.isf(q, dof)
+        counts = [int(np.sum(np.maximum(lam, alt / c) > thr)) for c in cs]
+        print(f"  q {q}: expected {len(c_rows) * q:.1f}, L {int(np.sum(lam > thr))}, {counts}")
+    level = _level()
+    need = float(alt.max() / level) if alt.size else 1.0
+    print(f"selection level {level:.2f}: the smallest c at which no candidate reaches it: "
+          f"{max(need, 1.0):.3f}")  # fmt: skip
+
+
+def case(specs: list[str]) -> None:
+    from mismatch_realistic import case_recording
+
+    for spec in specs:
+        b, seed = spec.split(":")
+        rec, _ = case_recording(b, int(seed))
+        rows = sorted(statistics_of(rec), key=lambda x: -(x[3] or 0.0))[:3]
+        print(spec + ": " + "; ".join(f"{k} L {lam:.2f} L_alt {a or 0:.2f}"
+                                      for k, _, lam, a in rows))  # fmt: skip
+
+
+def cost(specs: list[str]) -> None:
+    from mismatch_realistic import case_recording
+
+    from tmopt.mismatch.diagnose import Settings, diagnose
+    from tmopt.mismatch.fit import data_from_recording
+
+    for spec in specs:
+        b, seed = spec.split(":")
+        rec, _ = case_recording(b, int(seed))
+        ratios = []
+        for _ in range(3):
+            t = {}
+            for on in (False, True):
+                t0 = time.perf_counter()
+                diagnose(data_from_recording(rec), Settings(kin_refit=on))
+                t[on] = time.perf_counter() - t0
+            ratios.append(t[True] / t[False])
+        print(f"{spec}: diagnosis with / without the alternative {statistics.median(ratios):.2f}x "
+              f"({', '.join(f'{x:.2f}' for x in ratios)})")  # fmt: skip
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    p = sub.add_parser("null")
+    p.add_argument("--seed-base", type=int, default=37060)
+    p.add_argument("--n", type=int, default=60)
+    p.add_argument("--out", default="results/mismatch_kin_alternative/null.jsonl")
+    sub.add_parser("summary").add_argument("paths", nargs="+")
+    sub.add_parser("case").add_argument("recordings", nargs="+")
+    sub.add_parser("cost").add_argument("recordings", nargs="+")
+    a = ap.parse_args(argv)
+    if a.cmd == "null":
+        if a.n < 1 or not 0 <= a.seed_base < 40000:
+            print("--n must be >= 1 and --seed-base in [0, 40000) (calibration seeds)",
+                  file=sys.stderr)  # fmt: skip
+            return 2
+        null(a.seed_base, a.n, Path(a.out))
+    elif a.cmd == "summary":
+        summary(a.paths)
+    elif a.cmd == "case":
+        case(a.recordings)
+    else:
+        cost(a.recordings)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
