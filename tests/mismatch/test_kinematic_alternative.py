@@ -84,7 +84,3 @@ def test_on_a_clean_recording_no_statistic_moves(backend):
     moved = {k: (off[k], on[k]) for k in on if on[k] != off[k]}
     assert not moved, (moved, cal.KIN_REFIT_INFLATION)
 
-
-def test_kin_refit_must_be_a_bool():
-    with pytest.raises(ValueError, match="kin_refit must be True or False"):
-        Settings(kin_refit="yes")
