@@ -59,7 +59,7 @@ def statistics_of(rec) -> list[tuple[str, int, float, float | None]]:
     from tmopt.mismatch.fit import data_from_recording
 
     d, basis = prepare(data_from_recording(rec))
-    st = Settings()
+    st = Settings(kin_refit=True)
     s = fit_state(d, basis, [], [], False, st)
     cands = _kin_candidates(d, basis, s, st)
     g = residual_groups(d, s)["kinematic"]

@@ -58,5 +58,5 @@ def test_with_the_tone_instrument_the_alternatives_noise_model_names_it(monkeypa
     kinematic group is read under the alternative's noise model (docs/mismatch.md 9.24):
     its weakness was partly its own signature taken into the null's spectrum."""
     monkeypatch.setattr(base, "EXCITED_SOURCE_OLS", False)
-    rep = build_report(diagnose(data_from_recording(_recording())))
+    rep = build_report(diagnose(data_from_recording(_recording()), Settings(kin_refit=True)))
     assert _named(rep) == [("actuation_gain", "x2"), ("sensing_cross_talk", "disp:x1<-y1")]

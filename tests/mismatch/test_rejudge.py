@@ -85,8 +85,8 @@ def test_a_near_alternative_the_data_still_need_the_effect_beside_is_no_rival():
     group came within AMBIGUOUS_DBIC, so the name was ambiguous.  Fitted in the coupling's
     place, the cross-talk is still strongly needed (:func:`needed_in_place`): the coupling
     cannot stand in, and the cross-talk is named.  ``in_place=False`` is the tool before.
-    Both with the kinematic group read under the null's noise model only
-    (``kin_refit=False``): read under the alternative's (docs/mismatch.md 9.24) the
+    Both with the kinematic group read under the null's noise model only (the default,
+    ``kin_refit=False``): read under the alternative's (docs/mismatch.md 9.24) the
     cross-talk is no near tie at all -- the null's spectrum had taken in its signature
     (GLR 43.7 against 4.6e4) -- and it is named with no alternative in the band."""
     sc = draw_scenario(674, "kernel")
@@ -94,7 +94,7 @@ def test_a_near_alternative_the_data_still_need_the_effect_beside_is_no_rival():
                     options={"source": "x1", "sensor": "disp"})  # fmt: skip
     inj = scale_to_snr(sc, inj, 20.0, 674, "kernel")[0]
     rec = realistic_recording(sc, [inj], [], 674, "kernel")[0]
-    dg = diagnose(data_from_recording(rec))
+    dg = diagnose(data_from_recording(rec), Settings(kin_refit=True))
     assert [(ev.candidate.key, alts) for ev, alts in dg.selected] == \
         [("sensing_cross_talk[disp:y1<-x1]", [])]  # fmt: skip
     rep = build_report(diagnose(data_from_recording(rec), Settings(kin_refit=False)))

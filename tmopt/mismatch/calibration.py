@@ -65,7 +65,9 @@ JOINT_INFLATION: dict[str, float] = {"drift": 3.25, "other": 1.05}
 #: chi^2_1's point at FAMILY_ALPHA / 150 (15.9; the catalogue's size): its largest
 #: ``L_alt`` is 114.8 (foreign 37117, a displacement readout scale of y2 at its 440 s tone
 #: in the lowest bins of 400-840 s pieces, 5.3 under the null's model), the next 19.7.
-#: (docs/mismatch.md 9.24; ``python experiments/mismatch_kin_alternative.py null``.)
+#: The option is off by default: a never-seen draw held a readout scale of y2 at L_alt 129
+#: beside a true gain (foreign 230034), past this factor (docs/mismatch.md 9.24;
+#: ``python experiments/mismatch_kin_alternative.py null``, then ``summary``).
 KIN_REFIT_INFLATION: float = 7.25
 
 #: When the final model's stiffness changes the exact kinematic relation by at least this
