@@ -558,11 +558,10 @@ def _joint(cand: Candidate, groups: dict) -> float:
 def _statistic(cand: Candidate, groups: dict) -> float:
     """A candidate's GLR in its group, or jointly with its tested twin.  A kinematic one's
     is also read with the noise model estimated under the alternative
-    (``groups["kinematic_alt"]``, :func:`_kin_alternative_group`) and counts by how far it
-    exceeds the null's beyond what it does on clean recordings: ``max(L, L_alt / c)``,
-    ``c = cal.KIN_REFIT_INFLATION`` the largest ratio ``L_alt / L`` of clean flight-like
-    recordings of both simulators, so that under "no effect" the statistic stays the
-    null's, as calibrated."""
+    (``groups["kinematic_alt"]``, :func:`_kin_alternative_group`, when
+    ``Settings.kin_refit`` is on) as ``max(L, L_alt / c)``, ``c =
+    cal.KIN_REFIT_INFLATION`` the smallest factor at which no kinematic candidate of 120
+    clean flight-like recordings reaches the selection's level (docs/mismatch.md 9.24)."""
     if cand.twin is not None and cand.twin_tested:
         return _joint(cand, groups)
     lam = groups[cand.group].glr(cand.columns)
@@ -634,13 +633,14 @@ def _kin_alternative_group(data: Data, state: State, cands: list[Candidate],
     the residual's pieces, where the smooth spectrum rests on a few periodogram bins.  An
     effect that dominates those bins is taken into the spectrum and whitened down with
     it, and the larger it is the more of it the spectrum takes (kernel 220066, a readout
-    scale on x2 of 1.0e-4: Wald 14.7 against 2.5e5 with the kinematic fit iterated with
-    its column; development seed 16004 at 1e-2: 0.07).  A test of each candidate under
-    its own alternative would cost one kinematic fit per candidate; the columns of all of
-    them at once (a readout's scale and cross-talks: a handful per axis, each at its
-    source's tones) give one noise model under every alternative, at the price of a
-    little noise power taken out of the tones' bins, which :func:`_statistic` allows
-    for."""
+    scale on x2 of 1.0e-4: Wald 14.7 against 3.3e5 here; development seed 16004 at 1e-2:
+    0.07).  A test of each candidate under its own alternative would cost one kinematic
+    fit per candidate; the columns of all of them at once (a readout's scale and
+    cross-talks: a handful per axis, each at its source's tones) give one noise model
+    under every alternative, at the price of noise power taken out of the tones' bins,
+    which :func:`_statistic` allows for.  Where every tone sits in the record's lowest
+    bins those bins are emptied and the statistic of pure noise can reach 100 or more
+    (clean foreign 37117): hence off by default."""
     if not settings.kin_refit:
         return None
     cols = [c for cand in cands if cand.group == "kinematic" for c in cand.columns
@@ -917,7 +917,7 @@ def _given(data, basis, chosen: list[Evaluation], i: int, settings: Settings,
         lam, dof, n, trials = ev.glr, ev.dof, ev.n_obs, len(RED_EXPONENTS)
     else:
         groups = residual_groups(data, st)
-        if cand.group == "kinematic":
+        if cand.group == "kinematic" and settings.kin_refit:
             groups["kinematic_alt"] = _kin_alternative_group(
                 data, st, _kin_candidates(data, basis, st, settings) + [cand], settings)
         g = groups[cand.group]
