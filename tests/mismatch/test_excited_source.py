@@ -10,6 +10,8 @@ noise, so the plain regressor is exogenous: 139.5, named."""
 
 from __future__ import annotations
 
+import pytest
+
 import tmopt.mismatch.effects.base as base
 from tmopt.mismatch.diagnose import Settings, diagnose
 from tmopt.mismatch.fit import data_from_recording
@@ -53,6 +55,7 @@ def test_with_the_tone_instrument_the_same_cross_talk_is_too_weak_to_name(monkey
     assert amb["rivals"][0]["name"].startswith("no effect")
 
 
+@pytest.mark.slow  # 44 s; an option off by default (test_rejudge's k674 covers it fast)
 def test_with_the_tone_instrument_the_alternatives_noise_model_names_it(monkeypatch):
     """The same cross-talk with the tone part as instrument is also named once the
     kinematic group is read under the alternative's noise model (docs/mismatch.md 9.24):
