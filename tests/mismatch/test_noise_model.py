@@ -164,3 +164,16 @@ def test_offsets_fitted_on_short_pieces_do_not_pull_the_estimate_down():
         levels[kind] = np.median(ratios, axis=0)
     np.testing.assert_allclose(levels["offset"], 1.0, atol=0.15)
     assert levels["off"][0] < 0.6  # what the offsets took out, read as the PSD
+
+
+def test_no_debias_round_is_the_estimate_as_read(monkeypatch):
+    """``DEBIAS_ROUNDS = 0``: no correction is made, and the estimate is ``off``'s (it
+    raised a NameError before)."""
+    import tmopt.mismatch.noise_model as nm
+
+    monkeypatch.setattr(nm, "DEBIAS_ROUNDS", 0)
+    y, layout = _short_pieces(np.random.default_rng(0).standard_normal(4000), 100)
+    f = np.fft.rfftfreq(100)[1:4]
+    off, zero = (NoiseModel.estimate(y[None], layout, 1.0, coupled=False, debias=k).matrix(f)
+                 for k in ("off", "offset"))  # fmt: skip
+    np.testing.assert_array_equal(zero, off)

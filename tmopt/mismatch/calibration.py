@@ -41,8 +41,7 @@ from __future__ import annotations
 
 __all__ = ["FAMILY_ALPHA", "LOCATE_ALPHA", "AMBIGUOUS_DBIC", "ALIASED_R2", "LJUNG_BOX_LAGS",
            "SHAPE_ALPHA", "MODEL_PRECISION", "JOINT_INFLATION", "KIN_REFIT_INFLATION",
-           "KIN_STIFFNESS_VISIBLE",
-           "LOWFREQ_NULL"]
+           "KIN_STIFFNESS_VISIBLE", "LOWFREQ_NULL"]
 
 FAMILY_ALPHA: float = 0.01
 LOCATE_ALPHA: float = 0.01

@@ -918,8 +918,9 @@ def _given(data, basis, chosen: list[Evaluation], i: int, settings: Settings,
     else:
         groups = residual_groups(data, st)
         if cand.group == "kinematic" and settings.kin_refit:
-            groups["kinematic_alt"] = _kin_alternative_group(
-                data, st, _kin_candidates(data, basis, st, settings) + [cand], settings)
+            kin = _kin_candidates(data, basis, st, settings)
+            kin += [cand] if cand.key not in {c.key for c in kin} else []
+            groups["kinematic_alt"] = _kin_alternative_group(data, st, kin, settings)
         g = groups[cand.group]
         lam = _statistic(cand, groups)
         dof, n, trials = len(cand.columns), g.n, cand.trials

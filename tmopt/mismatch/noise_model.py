@@ -714,6 +714,7 @@ def _smoothed_spectrum(residual: np.ndarray, layout: Layout, fs: float, fraction
     power = np.abs(xf) ** 2
     coefs = np.array([_whittle_spline(f, power[j], knots) for j in range(c)])
     if debias != "off":
+        bias = np.ones_like(power)
         for _ in range(DEBIAS_ROUNDS):
             bias = _debias_factors(f, knots, coefs, pooling, fs, debias)
             coefs = np.array([_whittle_spline(f, power[j] / bias[j], knots) for j in range(c)])
