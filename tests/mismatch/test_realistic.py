@@ -14,7 +14,12 @@ import pytest
 from tmopt.mismatch import foreign
 from tmopt.mismatch.effects import Injection
 from tmopt.mismatch.effects.glitch import glitch_interval_average
-from tmopt.mismatch.fit import data_from_recording, kinematic_coefficients, kinematic_target
+from tmopt.mismatch.fit import (
+    ACC_CONVENTIONS,
+    data_from_recording,
+    kinematic_coefficients,
+    kinematic_target,
+)
 from tmopt.mismatch.generate import _psd_on_grid, matched_snr, residual_families, whitened_power
 from tmopt.mismatch.realistic import (
     ACC_BUDGET,
@@ -108,11 +113,11 @@ def test_the_foreign_simulator_shares_no_physics_code_with_the_kernel():
     assert "simulate" not in Path(foreign.__file__).read_text().replace("simulation", "")
 
 
-@pytest.mark.parametrize("convention", ["held", "mean"])
+@pytest.mark.parametrize("convention", ["held", "mean", "end"])
 def test_the_exact_kinematic_relation_holds_on_the_independent_integrator(convention):
     """A nearly noise-free foreign recording at LPF-like stiffness obeys the exact ZOH
     relation of its accelerometer convention to rounding, and the k = 0 form misses by the
-    ~k h^3 v/2 term (held) -- RK4 and the derivation agree."""
+    ~k h^3 v/2 term (held, end) -- RK4 and the derivation agree."""
     sc = replace(short(11, "foreign"), background=QUIET, gaps=(), acc_convention=convention,
                  stiffness=(2e-6, -2e-6, 1.5e-6, -1e-6), force_stamp="applied")  # fmt: skip
     rec, _ = realistic_recording(sc, seed=11, backend="foreign", gaps=False)
@@ -124,13 +129,16 @@ def test_the_exact_kinematic_relation_holds_on_the_independent_integrator(conven
     naive = np.abs(kinematic_target(d0)[:2]).max()
     scale = np.abs(np.diff(rec["x1"], 2)).max()
     assert exact < 1e-9 * scale
-    if convention == "held":
+    if convention != "mean":
         assert naive > 1e3 * exact
+    for other in set(ACC_CONVENTIONS) - {convention}:  # each convention is its own
+        d.acc_convention = other
+        assert np.abs(kinematic_target(d)[:2]).max() > 1e3 * exact, other
 
 
 def test_kinematic_coefficients_reduce_to_the_k0_relation_and_match_closed_forms():
     h = 0.5
-    for conv in ("held", "mean"):
+    for conv in ACC_CONVENTIONS:
         cp, cm, g = kinematic_coefficients(np.zeros(4), h, conv)
         assert np.allclose(cp, 1) and np.allclose(cm, 2) and np.allclose(g, h * h / 2)
     k = np.array([2e-6, -2e-6, 1e-3, -1e-3])
@@ -141,6 +149,9 @@ def test_kinematic_coefficients_reduce_to_the_k0_relation_and_match_closed_forms
     s_over = np.where(k > 0, np.sinh(sq * h) * sq, -np.sin(sq * h) * sq)  # sqrt(k) sinh(sqrt(k) h)
     _, _, gm = kinematic_coefficients(k, h, "mean")
     assert np.allclose(gm, h * (c - 1) / s_over, rtol=1e-10)
+    cp, cm, g = kinematic_coefficients(k, h, "end")  # held's relation divided by C
+    assert np.allclose(cp, 1 / c, rtol=1e-14) and np.allclose(cm, 1 + 1 / c, rtol=1e-14)
+    assert np.allclose(g, (c - 1) / (k * c), rtol=1e-10)
 
 
 def test_injected_catalogue_effects_reach_both_simulators():

@@ -136,9 +136,10 @@ class Data:
     def x_eq(self) -> np.ndarray:
         """Positions as the accelerometer sees them (the stiffness term of Eq. 10): the
         true position ``r(t_n)`` for the ``held`` convention, the interval mean
-        ``(r_n + r_{n+1})/2`` for ``mean`` (exact to ``k a h^2/12`` ~ 1e-16 m s^-2; the
-        last sample of a segment keeps ``r_n``).  ``r`` is the readout less its estimated
-        noise (:func:`tmopt.mismatch.true_position.readout_noise`; the readout itself when
+        ``(r_n + r_{n+1})/2`` for ``mean`` (exact to ``k a h^2/12`` ~ 1e-16 m s^-2), the
+        step's end ``r_{n+1}`` for ``end`` (the last sample of a segment keeps ``r_n``).
+        ``r`` is the readout less its estimated noise
+        (:func:`tmopt.mismatch.true_position.readout_noise`; the readout itself when
         ``true_position`` is False): ``k n_r`` is correlated with the force the loop makes
         from ``n_r`` (docs/mismatch.md 9.19)."""
         key = (self.acc_convention, self.true_position,
@@ -148,10 +149,11 @@ class Data:
             r = self.x
             if self.true_position:
                 r = r - readout_noise(self.x, kinematic_target(self), self.segments, self.fs)
-            if self.acc_convention == "mean":
+            if self.acc_convention in ("mean", "end"):
+                w = 0.5 if self.acc_convention == "mean" else 1.0  # the weight of r_{n+1}
                 out = r.copy()
                 for a, b in self.segments:
-                    out[:, a : b - 1] = 0.5 * (r[:, a : b - 1] + r[:, a + 1 : b])
+                    out[:, a : b - 1] = (1 - w) * r[:, a : b - 1] + w * r[:, a + 1 : b]
                 r = out
             cache.clear()
             cache[key] = r
@@ -283,7 +285,7 @@ def _valid_segments(rec) -> tuple[list[slice], dict, list[str]]:
 
 #: The recording attribute naming the accelerometer's sampling convention.
 ACC_ATTRIBUTE = "acc_sampling"
-ACC_CONVENTIONS = ("held", "mean")
+ACC_CONVENTIONS = ("held", "mean", "end")
 
 
 def data_from_recording(rec) -> Data:
@@ -471,7 +473,10 @@ def kinematic_coefficients(k: np.ndarray, h: float, convention: str):
 
     Returns ``(c_prev, c_mid, g)`` with the relation ``x_{n+1} - c_mid x_n + c_prev x_{n-1}
     = g (a_n + a_{n-1})``: ``held`` -> ``(C, 1 + C, (C - 1)/k)``, ``mean`` ->
-    ``(1, 2, h (C - 1)/(sqrt(k) sinh(sqrt(k) h)))``, ``C = cosh(sqrt(k) h)``; power series
+    ``(1, 2, h (C - 1)/(sqrt(k) sinh(sqrt(k) h)))``, ``end`` (``a_n = k r(t_{n+1}) + u_n``)
+    -> ``(1/C, 1 + 1/C, (C - 1)/(k C))``, ``C = cosh(sqrt(k) h)``.  All three follow from
+    the ZOH step's ``x_{n+1} - 2 C x_n + x_{n-1} = ((C - 1)/k)(u_n + u_{n-1})`` with ``u``
+    replaced by what the accelerometer read (docs/mismatch.md 9.4, 9.25); power series
     in ``z = k h^2`` (|z| < 1e-4 here, so 6 terms are exact to double precision and k < 0
     needs no complex square root).
     """
@@ -487,6 +492,8 @@ def kinematic_coefficients(k: np.ndarray, h: float, convention: str):
     if convention == "mean":
         one = np.ones_like(z)
         return one, 2.0 * one, h * h * cm1_z / sinh_z
+    if convention == "end":
+        return 1.0 / cosh, 1.0 + 1.0 / cosh, h * h * cm1_z / cosh
     raise ValueError(f"convention must be one of {ACC_CONVENTIONS}; got {convention!r}")
 
 
@@ -795,50 +802,68 @@ def align_kinematics(data: Data, max_lag: int = 2) -> Data:
 
 def choose_acc_convention(data: Data, k: np.ndarray,
                           nuisance: Sequence[Column] = ()) -> tuple[str, dict]:  # fmt: skip
-    """Which accelerometer sampling convention the recording follows (``held`` or ``mean``).
+    """Which accelerometer sampling convention the recording follows (``held``, ``mean``
+    or ``end``).
 
-    ``held`` (``a_n = k r(t_n) + u_n``) and ``mean`` (the mean over ``[t_n, t_{n+1})``)
-    differ in Eq. 10 by the stiffness term ``k (r_n - r̄_n) ~ -k v h/2``: the nominal
-    least-squares fit of Eq. 10 with ``x_n`` or ``(x_n + x_{n+1})/2`` is compared by the
-    likelihood ratio ``LR = n log(RSS_held / RSS_mean)``.  That term is in step with the
+    ``held`` (``a_n = k r(t_n) + u_n``), ``mean`` (the mean over ``[t_n, t_{n+1})``) and
+    ``end`` (``k r(t_{n+1}) + u_n``: read after the step) differ in Eq. 10 by the stiffness
+    term, ``~k v h/2`` apart: the nominal least-squares fit of Eq. 10 with ``x_n``,
+    ``(x_n + x_{n+1})/2`` or ``x_{n+1}`` is compared by the likelihood ratio
+    ``LR_c = n log(RSS_c / RSS_best)``; a convention stays in the running while its LR
+    is below ``DECIDE_LR``, and one left alone decides.  That term is in step with the
     motion, and a wrong convention makes it look like an actuation delay -- and a delay
-    can make a wrong convention look right.  So the LR is first taken with the 1-tap
-    delay columns (:func:`_step_mean_columns`) as nuisance in both fits (what a delay
-    cannot explain) and decides when it reaches ``DECIDE_LR``; otherwise the LR without
-    them decides as before (the delay-free test loses power where the controller makes
-    the two terms alike; docs/mismatch.md 9.8).  When
-    ``|LR| < DECIDE_LR`` the data cannot tell (the difference is below the noise) and the
-    kinematic evidence decides (:func:`_kinematic_convention`); failing that, ``held``.
+    can make a wrong convention look right.  So the LRs are first taken with the 1-tap
+    delay columns (:func:`_step_mean_columns`) as nuisance in all fits (what a delay
+    cannot explain).  If ``held`` and ``mean`` are both left, the LR between those two
+    without the delay columns decides as before (the delay-free test loses power where
+    the controller makes the terms alike; docs/mismatch.md 9.8) -- but never for ``end``:
+    a delay moves that pass, and ``end`` lies twice as far from ``held`` as ``mean``
+    does (a true 0.011 s delay on a ``held`` recording reads ``mean`` at LR 10.6 there,
+    ``end`` at 47; docs/mismatch.md 9.25).  Of several left, the equation group cannot
+    tell them apart (the difference is below the noise) and the kinematic evidence
+    decides (:func:`_kinematic_convention`); failing that, ``held`` (if left).
     The recording's ``acc_sampling`` attribute, when present, decides instead.
-    ``nuisance``: further Eq. 10 columns in both fits -- the selected effects' when the
+    ``nuisance``: further Eq. 10 columns in all fits -- the selected effects' when the
     diagnosis redoes its kinematics with the final model (an unmodelled gain or coupling
-    in step with the motion otherwise decides between the two stiffness terms).
+    in step with the motion otherwise decides between the stiffness terms).
+    ``info``: ``equation_lr_mean_vs_held`` and ``equation_lr_end_vs_held`` (positive:
+    ``held`` fits worse), each with ``_delay_free`` for the first pass.
     """
     if data.usage.get("acc_convention_from") == "attribute":
         return data.acc_convention, {"from": "attribute"}
     basis = null_basis(data.geometry)
     n_obs = 2 * data.n
     info: dict = {}
-    for key, delay in (("equation_lr_mean_vs_held_delay_free", True),
-                       ("equation_lr_mean_vs_held", False)):  # fmt: skip
+    left = list(ACC_CONVENTIONS)
+    for suffix, delay in (("_delay_free", True), ("", False)):
         if delay and not DELAY_NUISANCE:
             continue
+        kept = left
+        if not delay:  # a delay misleads this pass: it only tells held from mean, as before
+            if not {"held", "mean"} <= set(left):
+                break
+            left = ["held", "mean"]
         rss = {}
-        for conv in ACC_CONVENTIONS:
+        for conv in left:
             probe = replace(data, acc_convention=conv, notes=[])
             probe.__dict__.pop("_x_eq", None)
             cols = nominal_equation_columns(probe, basis)
             cols += _step_mean_columns(probe, basis) if delay else []
             cols += list(nuisance)
             fit = solve(equation_target(probe, basis), cols, lambda v: v)
-            rss[conv] = float(np.sum(fit.residual**2))
-        lr = n_obs * math.log(max(rss["held"], 1e-300) / max(rss["mean"], 1e-300))
-        info[key] = lr
-        if abs(lr) >= DECIDE_LR:
+            rss[conv] = max(float(np.sum(fit.residual**2)), 1e-300)
+        for conv in ("mean", "end"):
+            if conv in rss and "held" in rss:
+                info[f"equation_lr_{conv}_vs_held{suffix}"] = n_obs * math.log(
+                    rss["held"] / rss[conv])
+        best = min(rss.values())
+        left = [c for c in left if n_obs * math.log(rss[c] / best) < DECIDE_LR]
+        if len(left) == 1:
             info["decided"] = True
             info["by"] = "equation group" + (" (delay columns as nuisance)" if delay else "")
-            return ("mean" if lr > 0 else "held"), info
-    conv, kin = _kinematic_convention(data, k)
+            return left[0], info
+        left = left if delay else kept
+    conv, kin = _kinematic_convention(data, k, left)
     info.update(kin)
     return conv, info
 
@@ -861,12 +886,16 @@ def _step_mean_columns(data: Data, basis: np.ndarray) -> list[Column]:
     return out
 
 
-def _kinematic_convention(data: Data, k: np.ndarray) -> tuple[str, dict]:
-    """The kinematic evidence: the two exact relations differ by ``~k h^2/2 (x_n -
-    x_{n-1})``; its coefficient ``gamma`` is estimated on the sensitive axes by
-    instrumental variables (the excitation tones): ``held`` predicts gamma = k, ``mean``
-    gamma ~ 0; decided when the predictions are 2 standard errors apart."""
+def _kinematic_convention(data: Data, k: np.ndarray,
+                          left: Sequence[str] = ACC_CONVENTIONS) -> tuple[str, dict]:  # fmt: skip
+    """The kinematic evidence among the conventions ``left``: the exact relations differ
+    by ``~k h^2/2 (x_n - x_{n-1})``; its coefficient ``gamma`` is estimated on the
+    sensitive axes by instrumental variables (the excitation tones): ``held`` predicts
+    gamma = k, ``mean`` gamma ~ 0, ``end`` gamma = -k; decided (the least squared
+    misfit) when the predictions are 2 standard errors apart."""
     info: dict = {}
+    default = "held" if "held" in left else left[0]
+    predicted = {"held": 1.0, "mean": 0.0, "end": -1.0}  # gamma / k
     probe = replace(data, stiffness=np.zeros(4), acc_convention="mean", notes=[])
     probe.__dict__.pop("_tones", None)
     y = kinematic_target(probe)
@@ -888,10 +917,10 @@ def _kinematic_convention(data: Data, k: np.ndarray) -> tuple[str, dict]:
         votes.append((gam, se, float(k[a])))
         info[AXES[a]] = {"gamma": gam, "se": se, "k": float(k[a])}
     decisive = [(g, s, kk) for g, s, kk in votes if abs(kk) > 2 * s]
-    if not decisive:
+    if not decisive or len(left) < 2:
         info["decided"] = False
-        return "held", info
-    score = sum(((g - kk) / s) ** 2 - (g / s) ** 2 for g, s, kk in decisive)
+        return default, info
+    score = {c: sum(((g - predicted[c] * kk) / s) ** 2 for g, s, kk in decisive) for c in left}
     info["decided"] = True
     info["by"] = "kinematic group"
-    return ("held" if score < 0 else "mean"), info
+    return min(left, key=lambda c: (score[c], c != default)), info

@@ -21,7 +21,8 @@ code:
   212 (1982)), the blue tail as a scaled second difference of white noise; readout noise
   in the loop (the controller sees it);
 * accelerometer: by default the *mean* acceleration over ``[t_n, t_{n+1})`` (an
-  integrating sensor; scenario ``acc_convention = "held"`` gives the kernel's convention);
+  integrating sensor; scenario ``acc_convention = "held"`` gives the kernel's convention,
+  ``"end"`` the stiffness term read at the step's end, ``k r(t_{n+1})``);
 * force channel: the command applied from t_n (``applied``) or the one that acted over
   ``[t_{n-1}, t_n)`` (``previous``, a timestamp convention of another simulator);
 * geometry: its own frame rotations from the angles.
@@ -305,10 +306,15 @@ def run_foreign(plan) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
                 t_prev = ts
         else:
             rk4(tt, i, h, late)
+        # the accelerometer read at the step's end: k r(t_n+1) plus the same step force
+        # (code that measures after the state update; docs/mismatch.md 9.25)
+        acc_end = accel(tt + h, i, r, v, over_step) if sc.acc_convention == "end" else None
         for a, name in enumerate(axes):
             rec[name][i] = meas[a]
             if sc.acc_convention == "held":
                 rec[f"acc_{name}"][i] = acc_held[a] + noise["acc"][a, i]
+            elif sc.acc_convention == "end":
+                rec[f"acc_{name}"][i] = acc_end[a] + noise["acc"][a, i]
             else:
                 rec[f"acc_{name}"][i] = (v[a] - v0[a]) / h + noise["acc"][a, i]
             rec[f"force_{name}"][i] = cmd[a] if sc.force_stamp == "applied" else (

@@ -116,9 +116,11 @@ class Scenario:
     ``nan`` (all channels NaN), ``nan_some`` (the readouts only) or ``drop`` (rows removed
     from the file).  ``glitches``: background glitches (catalogue ``glitch`` injections).
     ``acc_convention`` (foreign only): ``mean`` (the accelerometer reports the mean over
-    [t_n, t_{n+1})) or ``held`` (``k r(t_n)`` plus the force held over the step, as the
-    kernel); ``force_stamp`` (foreign only): ``applied`` (the force stamped n acts from
-    t_n) or ``previous`` (it acted over [t_{n-1}, t_n)).
+    [t_n, t_{n+1})), ``held`` (``k r(t_n)`` plus the force held over the step, as the
+    kernel) or ``end`` (``k r(t_{n+1})`` plus that force; never drawn by
+    :func:`draw_scenario`, whose sets stay as read); ``force_stamp`` (foreign only):
+    ``applied`` (the force stamped n acts from t_n) or ``previous`` (it acted over
+    [t_{n-1}, t_n)).
     """
 
     duration: float = 1800.0
