@@ -22,10 +22,12 @@ samples obey exactly (``C = cosh(sqrt(k) h)``, ``g = (C - 1)/k``; both real for 
   ``x_{n+1} - (1 + C) x_n + C x_{n-1} = g (a_n + a_{n-1})``;
 * accelerometer sampling ``mean`` (``a_n`` = mean acceleration over ``[t_n, t_{n+1})``,
   an integrating sensor): ``x_{n+1} - 2 x_n + x_{n-1} = beta (a_n + a_{n-1})`` with
-  ``beta = h (C - 1)/(sqrt(k) sinh(sqrt(k) h))``
+  ``beta = h (C - 1)/(sqrt(k) sinh(sqrt(k) h))``;
+* accelerometer sampling ``end`` (``a_n = k r(t_{n+1}) + u_n``, read after the step):
+  ``C x_{n+1} - (1 + C) x_n + x_{n-1} = g (a_n + a_{n-1})``
 
-(:func:`kinematic_coefficients`; derivation in docs/mismatch.md).  Both reduce to
-``h^2/2`` at k = 0; the ``held`` form differs from the k = 0 form by ``~k h^3 v/2``, which
+(:func:`kinematic_coefficients`; derivation in docs/mismatch.md 9.4, 9.25).  All reduce to
+``h^2/2`` at k = 0; ``held`` and ``end`` differ from the k = 0 form by ``~k h^3 v/2``, which
 at LPF-like |k| ~ 1e-6..2e-6 s^-2 reaches ~1e-13 m per sample at 2 Hz.  k is the
 equation group's estimate; the convention is read from the recording's ``acc_sampling``
 attribute or chosen from the data (:func:`choose_acc_convention`).  Kinematic candidates
@@ -295,7 +297,8 @@ def data_from_recording(rec) -> Data:
     :data:`MIN_SEGMENT` samples is kept (``Data.segments``) and a note says how much of the
     record is used.  A recording without such a segment gives a :class:`Data` with no
     samples (the plausibility checks then refuse it).  An ``acc_sampling`` attribute
-    (``held`` or ``mean``) fixes the accelerometer convention of the kinematic check.
+    (one of :data:`ACC_CONVENTIONS`) fixes the accelerometer convention of the kinematic
+    check; another value is named in a note and the convention chosen from the data.
     """
     segs, usage, notes = _valid_segments(rec)
     idx, bounds = _gathered([(s.start, s.stop) for s in segs])
@@ -326,6 +329,9 @@ def data_from_recording(rec) -> Data:
     if conv in ACC_CONVENTIONS:
         data.acc_convention = conv
         data.usage["acc_convention_from"] = "attribute"
+    elif conv:
+        data.notes.append(f"attribute {ACC_ATTRIBUTE}={conv!r} is not one of "
+                          f"{ACC_CONVENTIONS}: the convention is chosen from the data")
     return data
 
 
@@ -821,7 +827,8 @@ def choose_acc_convention(data: Data, k: np.ndarray,
     does (a true 0.011 s delay on a ``held`` recording reads ``mean`` at LR 10.6 there,
     ``end`` at 47; docs/mismatch.md 9.25).  Of several left, the equation group cannot
     tell them apart (the difference is below the noise) and the kinematic evidence
-    decides (:func:`_kinematic_convention`); failing that, ``held`` (if left).
+    decides (:func:`_kinematic_convention`); failing that, ``held`` if it is left (as
+    before), else the one left that fits the equation best.
     The recording's ``acc_sampling`` attribute, when present, decides instead.
     ``nuisance``: further Eq. 10 columns in all fits -- the selected effects' when the
     diagnosis redoes its kinematics with the final model (an unmodelled gain or coupling
@@ -835,6 +842,7 @@ def choose_acc_convention(data: Data, k: np.ndarray,
     n_obs = 2 * data.n
     info: dict = {}
     left = list(ACC_CONVENTIONS)
+    fittest = "held"
     for suffix, delay in (("_delay_free", True), ("", False)):
         if delay and not DELAY_NUISANCE:
             continue
@@ -857,13 +865,15 @@ def choose_acc_convention(data: Data, k: np.ndarray,
                 info[f"equation_lr_{conv}_vs_held{suffix}"] = n_obs * math.log(
                     rss["held"] / rss[conv])
         best = min(rss.values())
+        fittest = min(rss, key=rss.get)
         left = [c for c in left if n_obs * math.log(rss[c] / best) < DECIDE_LR]
         if len(left) == 1:
             info["decided"] = True
             info["by"] = "equation group" + (" (delay columns as nuisance)" if delay else "")
             return left[0], info
         left = left if delay else kept
-    conv, kin = _kinematic_convention(data, k, left)
+    # undecided: held if it is left (as before), else the one that fits the equation best
+    conv, kin = _kinematic_convention(data, k, left, "held" if "held" in left else fittest)
     info.update(kin)
     return conv, info
 
@@ -886,15 +896,14 @@ def _step_mean_columns(data: Data, basis: np.ndarray) -> list[Column]:
     return out
 
 
-def _kinematic_convention(data: Data, k: np.ndarray,
-                          left: Sequence[str] = ACC_CONVENTIONS) -> tuple[str, dict]:  # fmt: skip
+def _kinematic_convention(data: Data, k: np.ndarray, left: Sequence[str] = ACC_CONVENTIONS,
+                          default: str = "held") -> tuple[str, dict]:  # fmt: skip
     """The kinematic evidence among the conventions ``left``: the exact relations differ
     by ``~k h^2/2 (x_n - x_{n-1})``; its coefficient ``gamma`` is estimated on the
     sensitive axes by instrumental variables (the excitation tones): ``held`` predicts
     gamma = k, ``mean`` gamma ~ 0, ``end`` gamma = -k; decided (the least squared
-    misfit) when the predictions are 2 standard errors apart."""
+    misfit) when the predictions are 2 standard errors apart, else ``default``."""
     info: dict = {}
-    default = "held" if "held" in left else left[0]
     predicted = {"held": 1.0, "mean": 0.0, "end": -1.0}  # gamma / k
     probe = replace(data, stiffness=np.zeros(4), acc_convention="mean", notes=[])
     probe.__dict__.pop("_tones", None)
