@@ -14,6 +14,14 @@ counts the alarms and the conventions chosen.
     python experiments/mismatch_conventions.py survey --seeds 37144-37163 \
         --conventions end --tool two --out results/mismatch_conventions/two.jsonl
     python experiments/mismatch_conventions.py summary results/mismatch_conventions/*.jsonl
+    python experiments/mismatch_conventions.py bench --n 40 --tool three \
+        --out results/mismatch_conventions/bench_three.jsonl   # and --tool two
+    python experiments/mismatch_conventions.py bench-summary results/.../bench_three.jsonl
+
+``bench`` runs the realistic benchmark's foreign cases (seeds from ``--seed-base``,
+900000 by default: no benchmark draw's; the first ``--n`` of a fixed shuffle) with every
+scenario recorded ``end``, scored as the benchmark scores (``mismatch_realistic``):
+whether the tool keeps its power on such recordings, not only its silence.
 
 Rows are JSON lines (resumable: a (seed, convention, tool) row already written is
 skipped); each row records the library versions of the run.
@@ -29,6 +37,10 @@ from collections import Counter
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
 TOOLS = {"three": ("held", "mean", "end"), "two": ("held", "mean")}
 
 
@@ -40,28 +52,62 @@ def _seeds(text: str) -> list[int]:
     return seeds
 
 
-def diagnose_clean(seed: int, convention: str) -> dict:
+#: ``--rewrite``: sensor timings no simulator here makes, written over a clean recording's
+#: channels from its true state: ``end-from-held`` (``held`` rewritten to read
+#: ``k r(t_{n+1})``, the probe before the foreign simulator had ``end``), ``window:D`` (the
+#: accelerometer's window offset by a fraction D of a step from the command grid),
+#: ``readout-mean`` (the readout averaged over the step, trapezoid of the samples).
+REWRITES = ("none", "end-from-held", "window:D", "readout-mean")
+
+
+def rewritten(seed: int, convention: str, rewrite: str):
+    """A clean foreign recording (its scenario's convention replaced) with ``rewrite``."""
+    import tmopt.mismatch.realistic as R
+
+    sc = replace(R.draw_scenario(seed, "foreign"), acc_convention=convention)
+    if rewrite == "none":
+        return sc, R.realistic_recording(sc, seed=seed, backend="foreign")[0]
+    plan = R._plan(sc, (), (), seed)
+    chans, state = R._run(plan, "foreign")
+    kind, _, par = rewrite.partition(":")
+    for a, name in enumerate(("x1", "x2", "y1", "y2")):
+        acc, x = chans[f"acc_{name}"], chans[name]
+        if kind == "end-from-held":
+            acc[:-1] += sc.stiffness[a] * np.diff(state["r"][a])
+        elif kind == "window":
+            acc[1:] = (1 - float(par)) * acc[1:] + float(par) * acc[:-1]
+        elif kind == "readout-mean":
+            x[:-1] = 0.5 * (x[:-1] + x[1:])
+    return sc, R._finish(plan, chans, state, "foreign", True)
+
+
+def diagnose_clean(seed: int, convention: str, rewrite: str = "none") -> dict:
     """One clean foreign recording with its scenario's convention replaced -> a row."""
     from tmopt.mismatch.diagnose import diagnose
     from tmopt.mismatch.fit import data_from_recording
-    from tmopt.mismatch.realistic import draw_scenario, realistic_recording
     from tmopt.mismatch.report import build_report
 
-    sc = replace(draw_scenario(seed, "foreign"), acc_convention=convention)
-    rec, _ = realistic_recording(sc, seed=seed, backend="foreign")
+    sc, rec = rewritten(seed, convention, rewrite)
     t0 = time.process_time()
     rep = build_report(diagnose(data_from_recording(rec)))
     used = rep["data_used"]
     unexplained = (rep.get("unexplained_at") or {}).get("channels", []) \
         if rep.get("unexplained") else []  # fmt: skip
     names = [f"{e['name']}[{e['channel']}]" for e in rep["effects"] + rep["ambiguous"]]
-    return {"seed": seed, "convention": convention, "fs": sc.sample_rate,
+    return {"seed": seed, "convention": convention, "rewrite": rewrite, "fs": sc.sample_rate,
             "stiffness": list(sc.stiffness), "status": rep["status"],
             "chosen": used.get("acc_convention"),
             "by": (used.get("acc_convention_evidence") or {}).get("by", "undecided"),
             "names": names, "unexplained": unexplained,
             "alarm": bool(names or unexplained or rep["status"] != "diagnosed"),
             "cpu_s": time.process_time() - t0}  # fmt: skip
+
+
+def _fraction(text: str) -> bool:
+    try:
+        return 0.0 < float(text) < 1.0
+    except ValueError:
+        return False
 
 
 def survey(args) -> None:
@@ -73,13 +119,14 @@ def survey(args) -> None:
     out.parent.mkdir(parents=True, exist_ok=True)
     done = set()
     if out.exists():
-        done = {(r["seed"], r["convention"], r["tool"])
+        done = {(r["seed"], r["convention"], r.get("rewrite", "none"), r["tool"])
                 for r in map(json.loads, out.read_text().splitlines())}  # fmt: skip
     versions = library_versions()
     todo = [(s, c) for s in _seeds(args.seeds) for c in args.conventions.split(",")
-            if (s, c, args.tool) not in done]  # fmt: skip
+            if (s, c, args.rewrite, args.tool) not in done]  # fmt: skip
     for i, (seed, conv) in enumerate(todo, 1):
-        row = {**diagnose_clean(seed, conv), "tool": args.tool, "versions": versions}
+        row = {**diagnose_clean(seed, conv, args.rewrite), "tool": args.tool,
+               "versions": versions}  # fmt: skip
         with out.open("a") as fh:
             fh.write(json.dumps(row) + "\n")
         print(f"[{i}/{len(todo)}] {seed} {conv}: chosen {row['chosen']} ({row['by']}); "
@@ -89,18 +136,47 @@ def survey(args) -> None:
 
 def summary(paths: list[str]) -> str:
     rows = [json.loads(line) for p in paths for line in Path(p).read_text().splitlines()]
-    lines = ["| tool | recorded convention | recordings | alarms | chosen held / mean / end |",
-             "|---|---|---|---|---|"]
-    for tool in sorted({r["tool"] for r in rows}):
-        for conv in sorted({r["convention"] for r in rows if r["tool"] == tool}):
-            sel = [r for r in rows if r["tool"] == tool and r["convention"] == conv]
-            chosen = Counter(r["chosen"] for r in sel)
-            lines.append(f"| {tool} | {conv} | {len(sel)} | {sum(r['alarm'] for r in sel)} | "
-                         f"{chosen['held']} / {chosen['mean']} / {chosen['end']} |")
+    lines = ["| tool | recorded convention | rewrite | recordings | alarms | "
+             "chosen held / mean / end |", "|---|---|---|---|---|---|"]  # fmt: skip
+    keys = sorted({(r["tool"], r["convention"], r.get("rewrite", "none")) for r in rows})
+    for tool, conv, rw in keys:
+        sel = [r for r in rows if (r["tool"], r["convention"], r.get("rewrite", "none"))
+               == (tool, conv, rw)]  # fmt: skip
+        chosen = Counter(r["chosen"] for r in sel)
+        lines.append(f"| {tool} | {conv} | {rw} | {len(sel)} | {sum(r['alarm'] for r in sel)} "
+                     f"| {chosen['held']} / {chosen['mean']} / {chosen['end']} |")
     alarms = [r for r in rows if r["alarm"]]
-    lines += ["", "Alarms:"] + [f"- {r['tool']} {r['convention']} {r['seed']} (fs {r['fs']}): "
-                                f"{r['names'] + r['unexplained']}" for r in alarms]
+    lines += ["", "Alarms:"] + [f"- {r['tool']} {r['convention']} {r.get('rewrite', 'none')} "
+                                f"{r['seed']} (fs {r['fs']}): {r['names'] + r['unexplained']}"
+                                for r in alarms]  # fmt: skip
     return "\n".join(lines)
+
+
+def bench(args) -> None:
+    import numpy as np
+    from mismatch_realistic import cases, run_case
+
+    import tmopt.mismatch.fit as fit
+    import tmopt.mismatch.realistic as realistic
+
+    fit.ACC_CONVENTIONS = TOOLS[args.tool]
+    drawn = realistic.draw_scenario
+
+    def recorded_end(seed, backend="kernel", **fixed):  # every scenario read after the step
+        return drawn(seed, backend, **{**fixed, "acc_convention": "end"})
+
+    realistic.draw_scenario = recorded_end  # build() imports it at call time
+    todo = cases("foreign", args.seed_base, False, realistic.SCALER_VERSION)
+    todo = [todo[i] for i in np.random.default_rng(0).permutation(len(todo))[: args.n]]
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    done = {json.loads(x)["seed"] for x in out.read_text().splitlines()} if out.exists() else set()
+    for i, case in enumerate([c for c in todo if c["seed"] not in done], 1):
+        row = {**run_case(case), "tool": args.tool}
+        with out.open("a") as fh:
+            fh.write(json.dumps(row, default=str) + "\n")
+        print(f"[{i}] {case['seed']} {row.get('truth')}: found {row.get('found')!r} "
+              f"unexplained {row.get('unexplained_channels')!r}", flush=True)  # fmt: skip
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -110,14 +186,36 @@ def main(argv: list[str] | None = None) -> int:
     sv.add_argument("--seeds", required=True, help="calibration seeds a-b (< 40000)")
     sv.add_argument("--conventions", default="held,mean,end")
     sv.add_argument("--tool", choices=sorted(TOOLS), default="three")
+    sv.add_argument("--rewrite", default="none", help=f"one of {REWRITES} (D in (0, 1))")
     sv.add_argument("--out", required=True)
     sm = sub.add_parser("summary")
     sm.add_argument("rows", nargs="+")
+    bn = sub.add_parser("bench")
+    bn.add_argument("--n", type=int, default=40, help="cases, 1-150")
+    bn.add_argument("--seed-base", type=int, default=900000)
+    bn.add_argument("--tool", choices=sorted(TOOLS), default="three")
+    bn.add_argument("--out", required=True)
+    bs = sub.add_parser("bench-summary")
+    bs.add_argument("rows")
     args = ap.parse_args(argv)
+    if args.cmd == "bench":
+        if not 1 <= args.n <= 150:
+            raise SystemExit(f"--n must be in [1, 150]; got {args.n}")
+        bench(args)
+        return 0
+    if args.cmd == "bench-summary":
+        from mismatch_realistic import summarise
+
+        print(summarise([json.loads(x) for x in Path(args.rows).read_text().splitlines()]))
+        return 0
     if args.cmd == "survey":
         bad = set(args.conventions.split(",")) - set(TOOLS["three"])
         if bad:
             raise SystemExit(f"--conventions must be among {TOOLS['three']}; got {sorted(bad)}")
+        kind, _, par = args.rewrite.partition(":")
+        if args.rewrite not in REWRITES and not (kind == "window" and _fraction(par)):
+            raise SystemExit(f"--rewrite must be one of {REWRITES} with D in (0, 1); "
+                             f"got {args.rewrite!r}")  # fmt: skip
         survey(args)
     else:
         print(summary(args.rows))
