@@ -23,8 +23,8 @@ counts the alarms and the conventions chosen.
 scenario recorded ``end``, scored as the benchmark scores (``mismatch_realistic``):
 whether the tool keeps its power on such recordings, not only its silence.
 
-Rows are JSON lines (resumable: a (seed, convention, tool) row already written is
-skipped); each row records the library versions of the run.
+Rows are JSON lines (resumable: a (seed, convention, rewrite, tool) row already written
+is skipped); each row records the library versions of the run.
 """
 
 from __future__ import annotations
@@ -216,6 +216,9 @@ def main(argv: list[str] | None = None) -> int:
         if args.rewrite not in REWRITES and not (kind == "window" and _fraction(par)):
             raise SystemExit(f"--rewrite must be one of {REWRITES} with D in (0, 1); "
                              f"got {args.rewrite!r}")  # fmt: skip
+        if kind == "end-from-held" and args.conventions != "held":
+            raise SystemExit("--rewrite end-from-held rewrites a held accelerometer: "
+                             f"--conventions must be held; got {args.conventions!r}")
         survey(args)
     else:
         print(summary(args.rows))
