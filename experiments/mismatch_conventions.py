@@ -14,6 +14,9 @@ counts the alarms and the conventions chosen.
     python experiments/mismatch_conventions.py survey --seeds 37144-37163 \
         --conventions end --tool two --out results/mismatch_conventions/two.jsonl
     python experiments/mismatch_conventions.py summary results/mismatch_conventions/*.jsonl
+    python experiments/mismatch_conventions.py survey --seeds 16200-16215 --conventions end \
+        --duration 1200 --sample-rate 2 --stiffness 1.8e-6,-1.6e-6,1.2e-6,-1.5e-6 \
+        --tool two --out results/mismatch_conventions/dev_two.jsonl   # and --tool three
     python experiments/mismatch_conventions.py bench --n 40 --tool three \
         --out results/mismatch_conventions/bench_three.jsonl   # and --tool two
     python experiments/mismatch_conventions.py bench-summary results/.../bench_three.jsonl
@@ -48,7 +51,8 @@ def _seeds(text: str) -> list[int]:
     a, _, b = text.partition("-")
     seeds = list(range(int(a), int(b or a) + 1))
     if not seeds or seeds[0] >= 40000:
-        raise SystemExit(f"--seeds must be calibration seeds below 40000 (a-b); got {text!r}")
+        raise SystemExit(f"--seeds must be development or calibration seeds below 40000 "
+                         f"(a-b); got {text!r}")
     return seeds
 
 
@@ -60,11 +64,12 @@ def _seeds(text: str) -> list[int]:
 REWRITES = ("none", "end-from-held", "window:D", "readout-mean")
 
 
-def rewritten(seed: int, convention: str, rewrite: str):
-    """A clean foreign recording (its scenario's convention replaced) with ``rewrite``."""
+def rewritten(seed: int, convention: str, rewrite: str, fixed: dict | None = None):
+    """A clean foreign recording (its scenario's convention replaced, ``fixed`` fields
+    too) with ``rewrite``."""
     import tmopt.mismatch.realistic as R
 
-    sc = replace(R.draw_scenario(seed, "foreign"), acc_convention=convention)
+    sc = replace(R.draw_scenario(seed, "foreign", **(fixed or {})), acc_convention=convention)
     if rewrite == "none":
         return sc, R.realistic_recording(sc, seed=seed, backend="foreign")[0]
     plan = R._plan(sc, (), (), seed)
@@ -81,13 +86,14 @@ def rewritten(seed: int, convention: str, rewrite: str):
     return sc, R._finish(plan, chans, state, "foreign", True)
 
 
-def diagnose_clean(seed: int, convention: str, rewrite: str = "none") -> dict:
+def diagnose_clean(seed: int, convention: str, rewrite: str = "none",
+                   fixed: dict | None = None) -> dict:  # fmt: skip
     """One clean foreign recording with its scenario's convention replaced -> a row."""
     from tmopt.mismatch.diagnose import diagnose
     from tmopt.mismatch.fit import data_from_recording
     from tmopt.mismatch.report import build_report
 
-    sc, rec = rewritten(seed, convention, rewrite)
+    sc, rec = rewritten(seed, convention, rewrite, fixed)
     t0 = time.process_time()
     rep = build_report(diagnose(data_from_recording(rec)))
     used = rep["data_used"]
@@ -103,11 +109,38 @@ def diagnose_clean(seed: int, convention: str, rewrite: str = "none") -> dict:
             "cpu_s": time.process_time() - t0}  # fmt: skip
 
 
+def _check_fixed(args) -> None:
+    if args.duration is not None and not 600 <= args.duration <= 7200:
+        raise SystemExit(f"--duration must be in [600, 7200] s; got {args.duration}")
+    if args.sample_rate is not None and not 1 <= args.sample_rate <= 20:
+        raise SystemExit(f"--sample-rate must be in [1, 20] Hz; got {args.sample_rate}")
+    if args.stiffness is not None:
+        try:
+            k = [float(v) for v in args.stiffness.split(",")]
+        except ValueError:
+            k = []
+        if len(k) != 4 or any(abs(v) > 1e-5 for v in k):
+            raise SystemExit("--stiffness must be four values k1,k2,k3,k4 with |k| <= 1e-5 "
+                             f"s^-2; got {args.stiffness!r}")
+
+
 def _fraction(text: str) -> bool:
     try:
         return 0.0 < float(text) < 1.0
     except ValueError:
         return False
+
+
+def _fixed(args) -> dict:
+    """Scenario fields fixed for every recording (``--duration`` etc.; gaps off with them)."""
+    out: dict = {}
+    if args.duration:
+        out["duration"] = args.duration
+    if args.sample_rate:
+        out["sample_rate"] = args.sample_rate
+    if args.stiffness:
+        out["stiffness"] = tuple(float(v) for v in args.stiffness.split(","))
+    return {**out, "gaps": ()} if out else out
 
 
 def survey(args) -> None:
@@ -121,12 +154,13 @@ def survey(args) -> None:
     if out.exists():
         done = {(r["seed"], r["convention"], r.get("rewrite", "none"), r["tool"])
                 for r in map(json.loads, out.read_text().splitlines())}  # fmt: skip
+    # one --out per set of fixed fields: the resume key does not hold them
     versions = library_versions()
     todo = [(s, c) for s in _seeds(args.seeds) for c in args.conventions.split(",")
             if (s, c, args.rewrite, args.tool) not in done]  # fmt: skip
     for i, (seed, conv) in enumerate(todo, 1):
-        row = {**diagnose_clean(seed, conv, args.rewrite), "tool": args.tool,
-               "versions": versions}  # fmt: skip
+        row = {**diagnose_clean(seed, conv, args.rewrite, _fixed(args)), "tool": args.tool,
+               "fixed": _fixed(args), "versions": versions}  # fmt: skip
         with out.open("a") as fh:
             fh.write(json.dumps(row) + "\n")
         print(f"[{i}/{len(todo)}] {seed} {conv}: chosen {row['chosen']} ({row['by']}); "
@@ -187,6 +221,9 @@ def main(argv: list[str] | None = None) -> int:
     sv.add_argument("--conventions", default="held,mean,end")
     sv.add_argument("--tool", choices=sorted(TOOLS), default="three")
     sv.add_argument("--rewrite", default="none", help=f"one of {REWRITES} (D in (0, 1))")
+    sv.add_argument("--duration", type=float, help="fixed record length [s], 600-7200")
+    sv.add_argument("--sample-rate", type=float, help="fixed rate [Hz], 1-20")
+    sv.add_argument("--stiffness", help="fixed k of x1,x2,y1,y2 [s^-2], each |k| <= 1e-5")
     sv.add_argument("--out", required=True)
     sm = sub.add_parser("summary")
     sm.add_argument("rows", nargs="+")
@@ -216,6 +253,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.rewrite not in REWRITES and not (kind == "window" and _fraction(par)):
             raise SystemExit(f"--rewrite must be one of {REWRITES} with D in (0, 1); "
                              f"got {args.rewrite!r}")  # fmt: skip
+        _check_fixed(args)
         if kind == "end-from-held" and args.conventions != "held":
             raise SystemExit("--rewrite end-from-held rewrites a held accelerometer: "
                              f"--conventions must be held; got {args.conventions!r}")
