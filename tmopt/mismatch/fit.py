@@ -839,43 +839,50 @@ def choose_acc_convention(data: Data, k: np.ndarray,
     if data.usage.get("acc_convention_from") == "attribute":
         return data.acc_convention, {"from": "attribute"}
     basis = null_basis(data.geometry)
-    n_obs = 2 * data.n
     info: dict = {}
-    left = list(ACC_CONVENTIONS)
-    fittest = "held"
-    for suffix, delay in (("_delay_free", True), ("", False)):
-        if delay and not DELAY_NUISANCE:
-            continue
-        kept = left
-        if not delay:  # a delay misleads this pass: it only tells held from mean, as before
-            if not {"held", "mean"} <= set(left):
-                break
-            left = ["held", "mean"]
-        rss = {}
-        for conv in left:
-            probe = replace(data, acc_convention=conv, notes=[])
-            probe.__dict__.pop("_x_eq", None)
-            cols = nominal_equation_columns(probe, basis)
-            cols += _step_mean_columns(probe, basis) if delay else []
-            cols += list(nuisance)
-            fit = solve(equation_target(probe, basis), cols, lambda v: v)
-            rss[conv] = max(float(np.sum(fit.residual**2)), 1e-300)
+    left, fittest = list(ACC_CONVENTIONS), "held"
+    passes = [(True, left)] if DELAY_NUISANCE else []
+    for delay, among in passes + [(False, ["held", "mean"])]:
+        if not set(among) <= set(left):  # the second pass: only while held and mean are left
+            break
+        rss = _equation_rss(data, basis, among, delay, nuisance)
+        suffix = "_delay_free" if delay else ""
         for conv in ("mean", "end"):
             if conv in rss and "held" in rss:
-                info[f"equation_lr_{conv}_vs_held{suffix}"] = n_obs * math.log(
-                    rss["held"] / rss[conv])
-        best = min(rss.values())
-        fittest = min(rss, key=rss.get)
-        left = [c for c in left if n_obs * math.log(rss[c] / best) < DECIDE_LR]
-        if len(left) == 1:
+                info[f"equation_lr_{conv}_vs_held{suffix}"] = _lr(data, rss["held"], rss[conv])
+        best = min(rss, key=rss.get)
+        kept = [c for c in among if _lr(data, rss[c], rss[best]) < DECIDE_LR]
+        if len(kept) == 1:
             info["decided"] = True
             info["by"] = "equation group" + (" (delay columns as nuisance)" if delay else "")
-            return left[0], info
-        left = left if delay else kept
+            return kept[0], info
+        if delay:
+            left, fittest = kept, best
     # undecided: held if it is left (as before), else the one that fits the equation best
     conv, kin = _kinematic_convention(data, k, left, "held" if "held" in left else fittest)
     info.update(kin)
     return conv, info
+
+
+def _lr(data: Data, rss_worse: float, rss_better: float) -> float:
+    """``n log(RSS_a / RSS_b)`` over both Eq. 10 combinations' samples."""
+    return 2 * data.n * math.log(rss_worse / rss_better)
+
+
+def _equation_rss(data: Data, basis: np.ndarray, conventions: Sequence[str], delay: bool,
+                  nuisance: Sequence[Column]) -> dict[str, float]:  # fmt: skip
+    """The nominal Eq. 10 fit's residual sum of squares under each convention (the 1-tap
+    delay columns and ``nuisance`` beside the nominal columns)."""
+    rss = {}
+    for conv in conventions:
+        probe = replace(data, acc_convention=conv, notes=[])
+        probe.__dict__.pop("_x_eq", None)
+        cols = nominal_equation_columns(probe, basis)
+        cols += _step_mean_columns(probe, basis) if delay else []
+        cols += list(nuisance)
+        fit = solve(equation_target(probe, basis), cols, lambda v: v)
+        rss[conv] = max(float(np.sum(fit.residual**2)), 1e-300)
+    return rss
 
 
 #: |LR| (chi^2_1 units) above which the equation group decides the convention (p ~ 2e-3).
