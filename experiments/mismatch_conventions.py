@@ -1,4 +1,5 @@
-"""Accelerometer sampling conventions the tool may meet (docs/mismatch.md 9.25).
+"""Accelerometer sampling conventions and integrators the tool may meet (docs/mismatch.md
+9.25, 9.26).
 
 A simulator can read its accelerometer's stiffness term at the step's start (``held``,
 the kernel's), as the step's mean (``mean``, the foreign default) or after the step
@@ -26,6 +27,20 @@ counts the alarms and the conventions chosen.
 scenario recorded ``end``, scored as the benchmark scores (``mismatch_realistic``):
 whether the tool keeps its power on such recordings, not only its silence.
 
+A simulator may also take one Euler step per sample and record the acceleration that
+step used (``symplectic``: ``v += h a; r += h v``; ``explicit``: ``r += h v; v += h a``):
+its readout's second difference is ``h^2 a_n`` or ``h^2 a_{n-1}``, half a step from every
+ZOH relation.  ``--conventions`` takes them too, and ``bench --recorded symplectic``
+records the benchmark's foreign cases that way; ``--tool three`` is the tool without the
+Euler conventions (stop 49's), ``euler`` (the default) the shipped one:
+
+    python experiments/mismatch_conventions.py survey --seeds 37164-37183 \
+        --conventions symplectic,explicit --tool three --out euler_before.jsonl
+    python experiments/mismatch_conventions.py survey --seeds 37164-37183 \
+        --conventions symplectic,explicit,held,mean,end --out euler.jsonl
+    python experiments/mismatch_conventions.py bench --n 20 --recorded symplectic \
+        --out results/mismatch_conventions/bench_symplectic.jsonl   # and --tool three
+
 Rows are JSON lines (resumable: a (seed, convention, rewrite, tool) row already written
 is skipped); each row records the library versions of the run.
 """
@@ -44,7 +59,26 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-TOOLS = {"three": ("held", "mean", "end"), "two": ("held", "mean")}
+#: The tool's conventions: (ZOH accelerometer conventions, Euler conventions).  ``euler`` is
+#: the shipped tool (stop 50), ``three`` stop 49's, ``two`` the one before.
+TOOLS = {"euler": (("held", "mean", "end"), ("symplectic", "explicit")),
+         "three": (("held", "mean", "end"), ()), "two": (("held", "mean"), ())}
+#: What a recording can be made with: an accelerometer convention of the RK4 simulator, or
+#: an Euler integrator (which records the acceleration its step used).
+RECORDED = ("held", "mean", "end", "symplectic", "explicit")
+
+
+def _set_tool(name: str) -> None:
+    import tmopt.mismatch.fit as fit
+
+    fit.ACC_CONVENTIONS, fit.EULER_CONVENTIONS = TOOLS[name]  # read at call time
+
+
+def recorded_as(scenario, convention: str):
+    """``scenario`` recorded with ``convention`` (one of :data:`RECORDED`)."""
+    if convention in ("symplectic", "explicit"):
+        return replace(scenario, acc_convention="held", integrator=convention)
+    return replace(scenario, acc_convention=convention)
 
 
 def _seeds(text: str) -> list[int]:
@@ -69,7 +103,7 @@ def rewritten(seed: int, convention: str, rewrite: str, fixed: dict | None = Non
     too) with ``rewrite``."""
     import tmopt.mismatch.realistic as R
 
-    sc = replace(R.draw_scenario(seed, "foreign", **(fixed or {})), acc_convention=convention)
+    sc = recorded_as(R.draw_scenario(seed, "foreign", **(fixed or {})), convention)
     if rewrite == "none":
         return sc, R.realistic_recording(sc, seed=seed, backend="foreign")[0]
     plan = R._plan(sc, (), (), seed)
@@ -144,10 +178,9 @@ def _fixed(args) -> dict:
 
 
 def survey(args) -> None:
-    import tmopt.mismatch.fit as fit
     from tmopt.run.outputs import library_versions
 
-    fit.ACC_CONVENTIONS = TOOLS[args.tool]  # the tool's list, read at call time
+    _set_tool(args.tool)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     done = set()
@@ -171,14 +204,15 @@ def survey(args) -> None:
 def summary(paths: list[str]) -> str:
     rows = [json.loads(line) for p in paths for line in Path(p).read_text().splitlines()]
     lines = ["| tool | recorded convention | rewrite | recordings | alarms | "
-             "chosen held / mean / end |", "|---|---|---|---|---|---|"]  # fmt: skip
+             "chosen held / mean / end / symplectic / explicit |",
+             "|---|---|---|---|---|---|"]  # fmt: skip
     keys = sorted({(r["tool"], r["convention"], r.get("rewrite", "none")) for r in rows})
     for tool, conv, rw in keys:
         sel = [r for r in rows if (r["tool"], r["convention"], r.get("rewrite", "none"))
                == (tool, conv, rw)]  # fmt: skip
         chosen = Counter(r["chosen"] for r in sel)
         lines.append(f"| {tool} | {conv} | {rw} | {len(sel)} | {sum(r['alarm'] for r in sel)} "
-                     f"| {chosen['held']} / {chosen['mean']} / {chosen['end']} |")
+                     f"| {' / '.join(str(chosen[c]) for c in RECORDED)} |")
     alarms = [r for r in rows if r["alarm"]]
     lines += ["", "Alarms:"] + [f"- {r['tool']} {r['convention']} {r.get('rewrite', 'none')} "
                                 f"{r['seed']} (fs {r['fs']}): {r['names'] + r['unexplained']}"
@@ -190,23 +224,22 @@ def bench(args) -> None:
     import numpy as np
     from mismatch_realistic import cases, run_case
 
-    import tmopt.mismatch.fit as fit
     import tmopt.mismatch.realistic as realistic
 
-    fit.ACC_CONVENTIONS = TOOLS[args.tool]
+    _set_tool(args.tool)
     drawn = realistic.draw_scenario
 
-    def recorded_end(seed, backend="kernel", **fixed):  # every scenario read after the step
-        return drawn(seed, backend, **{**fixed, "acc_convention": "end"})
+    def recorded(seed, backend="kernel", **fixed):  # every scenario recorded as asked
+        return recorded_as(drawn(seed, backend, **fixed), args.recorded)
 
-    realistic.draw_scenario = recorded_end  # build() imports it at call time
+    realistic.draw_scenario = recorded  # build() imports it at call time
     todo = cases("foreign", args.seed_base, False, realistic.SCALER_VERSION)
     todo = [todo[i] for i in np.random.default_rng(0).permutation(len(todo))[: args.n]]
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     done = {json.loads(x)["seed"] for x in out.read_text().splitlines()} if out.exists() else set()
     for i, case in enumerate([c for c in todo if c["seed"] not in done], 1):
-        row = {**run_case(case), "tool": args.tool}
+        row = {**run_case(case), "tool": args.tool, "recorded": args.recorded}
         with out.open("a") as fh:
             fh.write(json.dumps(row, default=str) + "\n")
         print(f"[{i}] {case['seed']} {row.get('truth')}: found {row.get('found')!r} "
@@ -219,7 +252,7 @@ def main(argv: list[str] | None = None) -> int:
     sv = sub.add_parser("survey")
     sv.add_argument("--seeds", required=True, help="calibration seeds a-b (< 40000)")
     sv.add_argument("--conventions", default="held,mean,end")
-    sv.add_argument("--tool", choices=sorted(TOOLS), default="three")
+    sv.add_argument("--tool", choices=sorted(TOOLS), default="euler")
     sv.add_argument("--rewrite", default="none", help=f"one of {REWRITES} (D in (0, 1))")
     sv.add_argument("--duration", type=float, help="fixed record length [s], 600-7200")
     sv.add_argument("--sample-rate", type=float, help="fixed rate [Hz], 1-20")
@@ -230,7 +263,8 @@ def main(argv: list[str] | None = None) -> int:
     bn = sub.add_parser("bench")
     bn.add_argument("--n", type=int, default=40, help="cases, 1-150")
     bn.add_argument("--seed-base", type=int, default=900000)
-    bn.add_argument("--tool", choices=sorted(TOOLS), default="three")
+    bn.add_argument("--tool", choices=sorted(TOOLS), default="euler")
+    bn.add_argument("--recorded", choices=RECORDED, default="end")
     bn.add_argument("--out", required=True)
     bs = sub.add_parser("bench-summary")
     bs.add_argument("rows")
@@ -246,9 +280,9 @@ def main(argv: list[str] | None = None) -> int:
         print(summarise([json.loads(x) for x in Path(args.rows).read_text().splitlines()]))
         return 0
     if args.cmd == "survey":
-        bad = set(args.conventions.split(",")) - set(TOOLS["three"])
+        bad = set(args.conventions.split(",")) - set(RECORDED)
         if bad:
-            raise SystemExit(f"--conventions must be among {TOOLS['three']}; got {sorted(bad)}")
+            raise SystemExit(f"--conventions must be among {RECORDED}; got {sorted(bad)}")
         kind, _, par = args.rewrite.partition(":")
         if args.rewrite not in REWRITES and not (kind == "window" and _fraction(par)):
             raise SystemExit(f"--rewrite must be one of {REWRITES} with D in (0, 1); "

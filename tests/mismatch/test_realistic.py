@@ -16,6 +16,7 @@ from tmopt.mismatch.effects import Injection
 from tmopt.mismatch.effects.glitch import glitch_interval_average
 from tmopt.mismatch.fit import (
     ACC_CONVENTIONS,
+    EULER_CONVENTIONS,
     data_from_recording,
     kinematic_coefficients,
     kinematic_target,
@@ -113,12 +114,17 @@ def test_the_foreign_simulator_shares_no_physics_code_with_the_kernel():
     assert "simulate" not in Path(foreign.__file__).read_text().replace("simulation", "")
 
 
-@pytest.mark.parametrize("convention", ["held", "mean", "end"])
+@pytest.mark.parametrize("convention", ["held", "mean", "end", "symplectic", "explicit"])
 def test_the_exact_kinematic_relation_holds_on_the_independent_integrator(convention):
     """A nearly noise-free foreign recording at LPF-like stiffness obeys the exact ZOH
     relation of its accelerometer convention to rounding, and the k = 0 form misses by the
-    ~k h^3 v/2 term (held, end) -- RK4 and the derivation agree."""
-    sc = replace(short(11, "foreign"), background=QUIET, gaps=(), acc_convention=convention,
+    ~k h^3 v/2 term (held, end) -- RK4 and the derivation agree; an Euler step per sample
+    obeys its own (``symplectic``, ``explicit``: docs/mismatch.md 9.26), and every other
+    relation misses each recording by far more."""
+    euler = convention in EULER_CONVENTIONS
+    sc = replace(short(11, "foreign"), background=QUIET, gaps=(),
+                 acc_convention="held" if euler else convention,
+                 integrator=convention if euler else "rk4",
                  stiffness=(2e-6, -2e-6, 1.5e-6, -1e-6), force_stamp="applied")  # fmt: skip
     rec, _ = realistic_recording(sc, seed=11, backend="foreign", gaps=False)
     d = data_from_recording(rec)
@@ -131,7 +137,7 @@ def test_the_exact_kinematic_relation_holds_on_the_independent_integrator(conven
     assert exact < 1e-9 * scale
     if convention != "mean":
         assert naive > 1e3 * exact
-    for other in set(ACC_CONVENTIONS) - {convention}:  # each convention is its own
+    for other in set(ACC_CONVENTIONS + EULER_CONVENTIONS) - {convention}:  # each its own
         d.acc_convention = other
         assert np.abs(kinematic_target(d)[:2]).max() > 1e3 * exact, other
 
@@ -152,6 +158,9 @@ def test_kinematic_coefficients_reduce_to_the_k0_relation_and_match_closed_forms
     cp, cm, g = kinematic_coefficients(k, h, "end")  # held's relation divided by C
     assert np.allclose(cp, 1 / c, rtol=1e-14) and np.allclose(cm, 1 + 1 / c, rtol=1e-14)
     assert np.allclose(g, (c - 1) / (k * c), rtol=1e-10)
+    for conv in EULER_CONVENTIONS:  # exact at any k: h^2 times one acceleration
+        cp, cm, g = kinematic_coefficients(k, h, conv)
+        assert np.all(cp == 1) and np.all(cm == 2) and np.all(g == h * h)
 
 
 def test_injected_catalogue_effects_reach_both_simulators():

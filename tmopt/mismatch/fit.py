@@ -288,6 +288,13 @@ def _valid_segments(rec) -> tuple[list[slice], dict, list[str]]:
 #: The recording attribute naming the accelerometer's sampling convention.
 ACC_ATTRIBUTE = "acc_sampling"
 ACC_CONVENTIONS = ("held", "mean", "end")
+#: Recordings made by an Euler integrator, one step per sample with the acceleration at the
+#: step's start (``a_n = k r_n + u_n``, the one the step used): ``symplectic`` (``v += h a;
+#: r += h v``) obeys ``x_{n+1} - 2 x_n + x_{n-1} = h^2 a_n``, ``explicit`` (``r += h v;
+#: v += h a``) ``... = h^2 a_{n-1}`` -- exactly, at any k (docs/mismatch.md 9.26).  Against
+#: the ZOH relations they sit half a step apart in the kinematic group; in Eq. 10 they are
+#: ``held``.  Chosen from the data (:func:`_euler_convention`); () turns them off.
+EULER_CONVENTIONS = ("symplectic", "explicit")
 
 
 def data_from_recording(rec) -> Data:
@@ -326,12 +333,13 @@ def data_from_recording(rec) -> Data:
         segments=bounds,
         usage=usage,
     )  # fmt: skip
-    if conv in ACC_CONVENTIONS:
+    if conv in ACC_CONVENTIONS + EULER_CONVENTIONS:
         data.acc_convention = conv
         data.usage["acc_convention_from"] = "attribute"
     elif conv:
         data.notes.append(f"attribute {ACC_ATTRIBUTE}={conv!r} is not one of "
-                          f"{ACC_CONVENTIONS}: the convention is chosen from the data")
+                          f"{ACC_CONVENTIONS + EULER_CONVENTIONS}: the convention is chosen "
+                          "from the data")
     return data
 
 
@@ -500,7 +508,11 @@ def kinematic_coefficients(k: np.ndarray, h: float, convention: str):
         return one, 2.0 * one, h * h * cm1_z / sinh_z
     if convention == "end":
         return 1.0 / cosh, 1.0 + 1.0 / cosh, h * h * cm1_z / cosh
-    raise ValueError(f"convention must be one of {ACC_CONVENTIONS}; got {convention!r}")
+    if convention in EULER_CONVENTIONS:  # g multiplies a_n or a_{n-1} alone (acc_sum)
+        one = np.ones_like(z)
+        return one, 2.0 * one, h * h * one
+    raise ValueError(f"convention must be one of {ACC_CONVENTIONS + EULER_CONVENTIONS}; "
+                     f"got {convention!r}")
 
 
 def fb_projection(geometry: Geometry) -> np.ndarray:
@@ -583,22 +595,33 @@ def _kin_coefficients(data: Data):
     return kinematic_coefficients(k, data.dt, data.acc_convention)
 
 
+def acc_sum(data: Data) -> np.ndarray:
+    """The accelerations (4, rows) that ``g`` multiplies in the convention's relation:
+    ``a_n + a_{n-1}`` (ZOH conventions), ``a_n`` (``symplectic``), ``a_{n-1}``
+    (``explicit``); one row per ``Data.kin_index`` sample."""
+    n = data.kin_index
+    if data.acc_convention == "symplectic":
+        return data.acc[:, n]
+    if data.acc_convention == "explicit":
+        return data.acc[:, n - 1]
+    return data.acc[:, n] + data.acc[:, n - 1]
+
+
 def kinematic_target(data: Data) -> np.ndarray:
-    """The exact ZOH kinematic residual (4, rows), one row per ``Data.kin_index`` sample:
-    ``x_{n+1} - c_mid x_n + c_prev x_{n-1} - g (a_n + a_{n-1})`` (:func:`kinematic_coefficients`
-    with ``data.stiffness`` and ``data.acc_convention``)."""
+    """The exact kinematic residual (4, rows), one row per ``Data.kin_index`` sample:
+    ``x_{n+1} - c_mid x_n + c_prev x_{n-1} - g acc_sum`` (:func:`kinematic_coefficients`
+    and :func:`acc_sum` with ``data.stiffness`` and ``data.acc_convention``)."""
     n = data.kin_index
     c_prev, c_mid, g = (np.asarray(v, float)[:, None] for v in _kin_coefficients(data))
     return (data.x[:, n + 1] - c_mid * data.x[:, n] + c_prev * data.x[:, n - 1]
-            - g * (data.acc[:, n] + data.acc[:, n - 1]))  # fmt: skip
+            - g * acc_sum(data))  # fmt: skip
 
 
 def kinematic_series(data: Data, axis: int) -> np.ndarray:
-    """``g (a_n + a_{n-1})`` of one axis on the kinematic rows: what a readout error
-    scales (``g`` ~ h^2/2)."""
-    n = data.kin_index
+    """``g acc_sum`` of one axis on the kinematic rows (``g (a_n + a_{n-1})`` for the ZOH
+    conventions): what a readout error scales (``g`` ~ h^2/2)."""
     g = float(np.asarray(_kin_coefficients(data)[2], float)[axis])
-    return g * (data.acc[axis, n] + data.acc[axis, n - 1])
+    return g * acc_sum(data)[axis]
 
 
 def switch_series(data: Data, axis: int, lag: int = 0) -> np.ndarray:
@@ -840,6 +863,13 @@ def choose_acc_convention(data: Data, k: np.ndarray,
         return data.acc_convention, {"from": "attribute"}
     basis = null_basis(data.geometry)
     info: dict = {}
+    euler, info["euler"] = _euler_convention(data)
+    if euler is not None:  # in Eq. 10 an Euler recording is held: the equation must allow it
+        rss = _equation_rss(data, basis, ACC_CONVENTIONS, DELAY_NUISANCE, nuisance)
+        info["equation_lr_held_vs_best"] = _lr(data, rss["held"], min(rss.values()))
+        if info["equation_lr_held_vs_best"] < DECIDE_LR:
+            info["decided"], info["by"] = True, "kinematic group (Euler half step)"
+            return euler, info
     left, fittest = list(ACC_CONVENTIONS), "held"
     passes = [(True, left)] if DELAY_NUISANCE else []
     for delay, among in passes + [(False, ["held", "mean"])]:
@@ -901,6 +931,85 @@ def _step_mean_columns(data: Data, basis: np.ndarray) -> list[Column]:
         d[data.lagged(np.ones_like(f), 1) == 0] = 0.0
         out.append(Column(f"step_mean_{AXES[i]}", axis_column(basis, i, d)))
     return out
+
+
+#: An Euler convention is taken when every excited axis's half-step coefficient is within
+#: EULER_TOLERANCE of the convention's (+1 symplectic, -1 explicit) and EULER_Z standard
+#: errors from the ZOH relations' 0.  A readout stamped ``tau`` late on one axis has
+#: ``beta = -2 tau/h`` there and 0 elsewhere, so only a timing of ~h/2 on every excited
+#: axis reads as Euler (physically the same relation; docs/mismatch.md 9.26).
+EULER_TOLERANCE = 0.25
+EULER_Z = 10.0
+
+
+def _euler_convention(data: Data) -> tuple[str | None, dict]:
+    """Is the recording an Euler integrator's (:data:`EULER_CONVENTIONS`)?
+
+    The k = 0 ZOH residual ``x_{n+1} - 2 x_n + x_{n-1} - (h^2/2)(a_n + a_{n-1})`` of an
+    Euler recording is ``beta (h^2/2)(a_n - a_{n-1})`` with ``beta`` = +1 (``symplectic``)
+    or -1 (``explicit``), exactly and at any k (the ZOH relations' own k terms are
+    ~k h^2 v, some 1e-3 of this at the tones); ``beta`` is estimated per excited axis by
+    instrumental variables (the excitation tones: the loop puts readout noise into the
+    acceleration).  Returns the convention (None: the ZOH relations) and per-axis
+    ``beta``/``se`` (white standard error: the second difference's blue noise makes it
+    conservative).
+    """
+    info: dict = {}
+    if not EULER_CONVENTIONS:
+        return None, info
+    probe = replace(data, stiffness=np.zeros(4), acc_convention="mean", notes=[])
+    probe.__dict__.pop("_tones", None)
+    y = kinematic_target(probe)
+    n = data.kin_index
+    betas = []
+    for a in range(4):
+        tones = data.tones(a)
+        if not tones:
+            continue
+        reg = 0.5 * data.dt**2 * (data.acc[a, n] - data.acc[a, n - 1])
+        z = tone_instrument(reg, data.time[n], tones)
+        zz = float(z @ reg)
+        if zz == 0:
+            continue
+        beta = float(z @ y[a]) / zz
+        se = sideband_se(z, y[a] - beta * reg, data.time[n]) / abs(zz)
+        betas.append((beta, se))
+        info[AXES[a]] = {"beta": beta, "se": se}
+    if not betas:
+        return None, info
+    b, s = np.array(betas).T
+    w = 1.0 / s**2
+    beta, se = float(np.sum(w * b) / np.sum(w)), float(1.0 / math.sqrt(np.sum(w)))
+    info["combined"] = {"beta": beta, "se": se}
+    predicted = {"symplectic": 1.0, "explicit": -1.0}
+    for conv in EULER_CONVENTIONS:
+        p = predicted[conv]
+        if (abs(beta - p) < EULER_TOLERANCE and abs(beta) > EULER_Z * se
+                and np.all(np.abs(b - p) < np.maximum(EULER_TOLERANCE, 3.0 * s))):  # fmt: skip
+            return conv, info
+    return None, info
+
+
+#: Sideband offsets (in units of 1/T) of :func:`sideband_se`: clear of a tone's main lobe.
+SIDEBANDS = tuple(range(3, 15))
+
+
+def sideband_se(z: np.ndarray, res: np.ndarray, time: np.ndarray) -> float:
+    """Standard deviation of ``z @ res`` for a tone instrument ``z`` and coloured ``res``:
+    the spread of the same projection with ``z`` moved off its tones by ``+-m/T``
+    (``z cos(2 pi m t/T)``, rescaled to ``z``'s norm), ``m`` in :data:`SIDEBANDS` -- the
+    residual's own noise beside the tones, where a white formula would take its (blue)
+    mean square."""
+    t = time - time[0]
+    span = float(t[-1]) + (float(t[1] - t[0]) if t.size > 1 else 1.0)
+    zz = float(z @ z)
+    proj = []
+    for m in SIDEBANDS:
+        zm = z * np.cos(2 * math.pi * m * t / span)
+        norm = float(zm @ zm)
+        if norm > 0:
+            proj.append(float(zm @ res) * math.sqrt(zz / norm))
+    return float(np.sqrt(np.mean(np.square(proj)))) if proj else math.inf
 
 
 def _kinematic_convention(data: Data, k: np.ndarray, left: Sequence[str] = ACC_CONVENTIONS,

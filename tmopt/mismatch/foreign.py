@@ -10,7 +10,10 @@ code:
 
 * integrator: classical Runge-Kutta (RK4), one step per sample, split where a delayed
   command switches inside the step (RK4 is exact for the held force and accurate to
-  ``(sqrt(|k|) h)^5 ~ 1e-15`` for the stiffness term);
+  ``(sqrt(|k|) h)^5 ~ 1e-15`` for the stiffness term); or (scenario ``integrator``) one
+  Euler step per sample with the acceleration at the step's start, as a hand-written
+  simulator may do -- ``symplectic`` or ``explicit``, the recorded acceleration being the
+  one the step used (a delayed command enters as its step mean; docs/mismatch.md 9.26);
 * controller: a positional continuous-time PID per axis, ``u = Kp e + Ki int e + Kd de/dt``
   with a first-order derivative filter, discretised by Tustin's rule, conditional
   integration at the +-F_max clip; gains from a loop bandwidth drawn per recording
@@ -295,7 +298,9 @@ def run_foreign(plan) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
         acc_held = accel(tt, i, r, v, over_step)
         v0 = list(v)
         cut = max(split) if any(s > 0 for s in split) else 0.0
-        if cut > 0:
+        if sc.integrator != "rk4":
+            _euler_step(sc.integrator, r, v, acc_held, h)
+        elif cut > 0:
             # integrate to the latest switch with each axis's early/late command: split the
             # step at every distinct switch time
             times = sorted({s for s in split if s > 0} | {h})
@@ -311,7 +316,7 @@ def run_foreign(plan) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
         acc_end = accel(tt + h, i, r, v, over_step) if sc.acc_convention == "end" else None
         for a, name in enumerate(axes):
             rec[name][i] = meas[a]
-            if sc.acc_convention == "held":
+            if sc.acc_convention == "held":  # (and every Euler step: _check_integrator)
                 rec[f"acc_{name}"][i] = acc_held[a] + noise["acc"][a, i]
             elif sc.acc_convention == "end":
                 rec[f"acc_{name}"][i] = acc_end[a] + noise["acc"][a, i]
@@ -329,6 +334,19 @@ def run_foreign(plan) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
             rec[f"sc_omega_{c}"] = omega[j].copy()
             rec[f"sc_omega_dot_{c}"] = omega_dot[j].copy()
     return rec, {"time": t_axis.copy(), "r": true_r}
+
+
+def _euler_step(kind: str, r: list, v: list, acc: list, h: float) -> None:
+    """One Euler step with the acceleration at the step's start, as a hand-written
+    simulator may take it: ``symplectic`` (``v += h a; r += h v``, so ``r_{n+1} - 2 r_n +
+    r_{n-1} = h^2 a_n``) or ``explicit`` (``r += h v; v += h a``: ``h^2 a_{n-1}``)."""
+    for a in range(4):
+        if kind == "symplectic":
+            v[a] += h * acc[a]
+            r[a] += h * v[a]
+        else:
+            r[a] += h * v[a]
+            v[a] += h * acc[a]
 
 
 def _rotation(out, i, rr, vv, omega, omega_dot, wa, wb, lever) -> None:

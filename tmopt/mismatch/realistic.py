@@ -120,7 +120,10 @@ class Scenario:
     kernel) or ``end`` (``k r(t_{n+1})`` plus that force; never drawn by
     :func:`draw_scenario`, whose sets stay as read); ``force_stamp`` (foreign only):
     ``applied`` (the force stamped n acts from t_n) or ``previous`` (it acted over
-    [t_{n-1}, t_n)).
+    [t_{n-1}, t_n)).  ``integrator`` (foreign only): ``rk4`` (the default), or a simulator
+    that takes one Euler step per sample with the acceleration at the step's start and
+    records that acceleration -- ``symplectic`` (``v += h a; r += h v``) or ``explicit``
+    (``r += h v; v += h a``); never drawn (docs/mismatch.md 9.26).
     """
 
     duration: float = 1800.0
@@ -136,6 +139,7 @@ class Scenario:
     witnesses: bool = True
     acc_convention: str = "mean"
     force_stamp: str = "applied"
+    integrator: str = "rk4"  # INTEGRATORS
 
     @property
     def n(self) -> int:
@@ -159,6 +163,8 @@ class Scenario:
         d = asdict(self)
         d["glitches"] = [asdict(g) for g in self.glitches]
         d["excitation"] = self.excitation_spec()
+        if self.integrator == "rk4":  # the read sets' truths (and names) as they were
+            del d["integrator"]
         return d
 
 
@@ -677,6 +683,7 @@ def realistic_recording(scenario: Scenario, effects: Sequence[Injection] = (),
         raise ValueError(f"backend must be one of {BACKENDS}; got {backend!r}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be an integer in [0, inf); got {seed!r}")
+    _check_integrator(scenario, backend)
     plan = _plan(scenario, effects, ooc, int(seed))
     chans, state = _run(plan, backend)
     rec = _finish(plan, chans, state, backend, gaps)
@@ -692,6 +699,25 @@ def realistic_recording(scenario: Scenario, effects: Sequence[Injection] = (),
         "samples": {"grid": scenario.n, "valid": int(np.sum(rec.valid))},
     }  # fmt: skip
     return rec, truth
+
+
+#: ``Scenario.integrator``: the foreign simulator's RK4, or an Euler step per sample.
+INTEGRATORS = ("rk4", "symplectic", "explicit")
+
+
+def _check_integrator(scenario: Scenario, backend: str) -> None:
+    if scenario.acc_convention not in ("held", "mean", "end"):
+        raise ValueError("acc_convention must be one of ('held', 'mean', 'end'); got "
+                         f"{scenario.acc_convention!r}")
+    if scenario.integrator not in INTEGRATORS:
+        raise ValueError(f"integrator must be one of {INTEGRATORS}; got {scenario.integrator!r}")
+    if scenario.integrator != "rk4" and backend != "foreign":
+        raise ValueError(f"integrator={scenario.integrator!r} needs backend 'foreign' (the "
+                         f"kernel steps exactly); got backend {backend!r}")
+    if scenario.integrator != "rk4" and scenario.acc_convention != "held":
+        raise ValueError(f"integrator={scenario.integrator!r} records the acceleration its "
+                         f"step used: acc_convention must be 'held'; got "
+                         f"{scenario.acc_convention!r}")
 
 
 def recording_name(truth: dict[str, Any]) -> str:
