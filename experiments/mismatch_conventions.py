@@ -41,6 +41,9 @@ Euler conventions (stop 49's), ``euler`` (the default) the shipped one:
     python experiments/mismatch_conventions.py bench --n 20 --recorded symplectic \
         --out results/mismatch_conventions/bench_symplectic.jsonl   # and --tool three
 
+``scan --seed-base 240000`` reads the convention of every recording of a read benchmark
+set with the shipped tool: the Euler conventions must take none of them.
+
 Rows are JSON lines (resumable: a (seed, convention, rewrite, tool) row already written
 is skipped); each row records the library versions of the run.
 """
@@ -59,25 +62,41 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-#: The tool's conventions: (ZOH accelerometer conventions, Euler conventions).  ``euler`` is
-#: the shipped tool (stop 50), ``three`` stop 49's, ``two`` the one before.
-TOOLS = {"euler": (("held", "mean", "end"), ("symplectic", "explicit")),
-         "three": (("held", "mean", "end"), ()), "two": (("held", "mean"), ())}
+#: The tool's conventions: (ZOH accelerometer conventions, half-step term estimated).
+#: ``halfstep`` is the shipped tool (stop 50), ``three`` stop 49's, ``two`` the one before.
+TOOLS = {"halfstep": (("held", "mean", "end"), True), "three": (("held", "mean", "end"), False),
+         "two": (("held", "mean"), False)}
 #: What a recording can be made with: an accelerometer convention of the RK4 simulator, or
-#: an Euler integrator (which records the acceleration its step used).
-RECORDED = ("held", "mean", "end", "symplectic", "explicit")
+#: Euler steps (which record the acceleration at the sample), ``symplectic`` or
+#: ``explicit`` with an optional number of sub-steps per sample (``symplectic10``).
+RECORDED = ("held", "mean", "end", "symplectic[N]", "explicit[N]")
 
 
 def _set_tool(name: str) -> None:
     import tmopt.mismatch.fit as fit
 
-    fit.ACC_CONVENTIONS, fit.EULER_CONVENTIONS = TOOLS[name]  # read at call time
+    fit.ACC_CONVENTIONS, fit.HALFSTEP = TOOLS[name]  # read at call time
+
+
+def _euler(convention: str) -> tuple[str, int] | None:
+    """``symplectic10`` -> ("symplectic", 10); None for an RK4 convention."""
+    for kind in ("symplectic", "explicit"):
+        if convention.startswith(kind):
+            rest = convention[len(kind):]
+            if rest == "" or (rest.isdigit() and 1 <= int(rest) <= 100):
+                return kind, int(rest or 1)
+    return None
+
+
+def _recordable(convention: str) -> bool:
+    return convention in ("held", "mean", "end") or _euler(convention) is not None
 
 
 def recorded_as(scenario, convention: str):
-    """``scenario`` recorded with ``convention`` (one of :data:`RECORDED`)."""
-    if convention in ("symplectic", "explicit"):
-        return replace(scenario, acc_convention="held", integrator=convention)
+    """``scenario`` recorded with ``convention`` (see :data:`RECORDED`)."""
+    euler = _euler(convention)
+    if euler:
+        return replace(scenario, acc_convention="held", integrator=euler[0], substeps=euler[1])
     return replace(scenario, acc_convention=convention)
 
 
@@ -136,7 +155,7 @@ def diagnose_clean(seed: int, convention: str, rewrite: str = "none",
     names = [f"{e['name']}[{e['channel']}]" for e in rep["effects"] + rep["ambiguous"]]
     return {"seed": seed, "convention": convention, "rewrite": rewrite, "fs": sc.sample_rate,
             "stiffness": list(sc.stiffness), "status": rep["status"],
-            "chosen": used.get("acc_convention"),
+            "chosen": used.get("acc_convention"), "halfstep": used.get("kinematic_halfstep"),
             "by": (used.get("acc_convention_evidence") or {}).get("by", "undecided"),
             "names": names, "unexplained": unexplained,
             "alarm": bool(names or unexplained or rep["status"] != "diagnosed"),
@@ -204,15 +223,17 @@ def survey(args) -> None:
 def summary(paths: list[str]) -> str:
     rows = [json.loads(line) for p in paths for line in Path(p).read_text().splitlines()]
     lines = ["| tool | recorded convention | rewrite | recordings | alarms | "
-             "chosen held / mean / end / symplectic / explicit |",
+             "chosen held / mean / end / with a half-step term [min, max] |",
              "|---|---|---|---|---|---|"]  # fmt: skip
     keys = sorted({(r["tool"], r["convention"], r.get("rewrite", "none")) for r in rows})
     for tool, conv, rw in keys:
         sel = [r for r in rows if (r["tool"], r["convention"], r.get("rewrite", "none"))
                == (tool, conv, rw)]  # fmt: skip
-        chosen = Counter(r["chosen"] for r in sel)
+        chosen = Counter(r["chosen"] if not r.get("halfstep") else "halfstep" for r in sel)
+        steps = sorted(round(r["halfstep"], 3) for r in sel if r.get("halfstep"))
         lines.append(f"| {tool} | {conv} | {rw} | {len(sel)} | {sum(r['alarm'] for r in sel)} "
-                     f"| {' / '.join(str(chosen[c]) for c in RECORDED)} |")
+                     f"| {' / '.join(str(chosen[c]) for c in ('held', 'mean', 'end'))} / "
+                     f"{chosen['halfstep']} {steps[:1] + steps[-1:] if steps else ''} |")
     alarms = [r for r in rows if r["alarm"]]
     lines += ["", "Alarms:"] + [f"- {r['tool']} {r['convention']} {r.get('rewrite', 'none')} "
                                 f"{r['seed']} (fs {r['fs']}): {r['names'] + r['unexplained']}"
@@ -246,13 +267,45 @@ def bench(args) -> None:
               f"unexplained {row.get('unexplained_channels')!r}", flush=True)  # fmt: skip
 
 
+def scan(args) -> None:
+    """The convention the shipped tool reads (``prepare``: the path of every diagnosis) on
+    each recording of a benchmark set, made as the benchmark makes it -- whether the Euler
+    conventions take any recording the read sets hold (where they do not, the diagnosis
+    is the one before them: nothing else changed)."""
+    from mismatch_realistic import _made, cases
+
+    from tmopt.mismatch.diagnose import prepare
+    from tmopt.mismatch.fit import data_from_recording
+
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    done = set()
+    if out.exists():
+        done = {(r["backend"], r["seed"]) for r in map(json.loads, out.read_text().splitlines())}
+    todo = [c for b in ("kernel", "foreign") for c in cases(b, args.seed_base, False, 2)
+            if (c["backend"], c["seed"]) not in done]  # fmt: skip
+    for i, case in enumerate(todo, 1):
+        rec, truth = _made(case)[:2]
+        data, _ = prepare(data_from_recording(rec))
+        ev = data.usage.get("acc_convention_evidence", {}).get("halfstep_evidence", {})
+        row = {"backend": case["backend"], "seed": case["seed"],
+               "recorded": truth["scenario"].get("acc_convention"),
+               "chosen": data.acc_convention, "halfstep": data.halfstep,
+               "evidence": ev.get("combined")}  # fmt: skip
+        with out.open("a") as fh:
+            fh.write(json.dumps(row) + "\n")
+        print(f"[{i}/{len(todo)}] {case['backend']} {case['seed']}: recorded "
+              f"{row['recorded']}, chosen {row['chosen']}, half-step {row['halfstep']} "
+              f"({row['evidence']})", flush=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
     sv = sub.add_parser("survey")
     sv.add_argument("--seeds", required=True, help="calibration seeds a-b (< 40000)")
     sv.add_argument("--conventions", default="held,mean,end")
-    sv.add_argument("--tool", choices=sorted(TOOLS), default="euler")
+    sv.add_argument("--tool", choices=sorted(TOOLS), default="halfstep")
     sv.add_argument("--rewrite", default="none", help=f"one of {REWRITES} (D in (0, 1))")
     sv.add_argument("--duration", type=float, help="fixed record length [s], 600-7200")
     sv.add_argument("--sample-rate", type=float, help="fixed rate [Hz], 1-20")
@@ -263,16 +316,28 @@ def main(argv: list[str] | None = None) -> int:
     bn = sub.add_parser("bench")
     bn.add_argument("--n", type=int, default=40, help="cases, 1-150")
     bn.add_argument("--seed-base", type=int, default=900000)
-    bn.add_argument("--tool", choices=sorted(TOOLS), default="euler")
-    bn.add_argument("--recorded", choices=RECORDED, default="end")
+    bn.add_argument("--tool", choices=sorted(TOOLS), default="halfstep")
+    bn.add_argument("--recorded", default="end", help=f"one of {RECORDED}")
     bn.add_argument("--out", required=True)
+    sc = sub.add_parser("scan")
+    sc.add_argument("--seed-base", type=int, required=True, help="a read set, e.g. 240000")
+    sc.add_argument("--out", required=True)
     bs = sub.add_parser("bench-summary")
     bs.add_argument("rows")
     args = ap.parse_args(argv)
     if args.cmd == "bench":
+        if not _recordable(args.recorded):
+            raise SystemExit(f"--recorded must be one of {RECORDED} (N in 1-100); "
+                             f"got {args.recorded!r}")
         if not 1 <= args.n <= 150:
             raise SystemExit(f"--n must be in [1, 150]; got {args.n}")
         bench(args)
+        return 0
+    if args.cmd == "scan":
+        if args.seed_base % 10000 or not 40000 <= args.seed_base <= 240000:
+            raise SystemExit("--seed-base must be a read benchmark set, 40000-240000 in steps "
+                             f"of 10000; got {args.seed_base}")
+        scan(args)
         return 0
     if args.cmd == "bench-summary":
         from mismatch_realistic import summarise
@@ -280,7 +345,7 @@ def main(argv: list[str] | None = None) -> int:
         print(summarise([json.loads(x) for x in Path(args.rows).read_text().splitlines()]))
         return 0
     if args.cmd == "survey":
-        bad = set(args.conventions.split(",")) - set(RECORDED)
+        bad = [c for c in args.conventions.split(",") if not _recordable(c)]
         if bad:
             raise SystemExit(f"--conventions must be among {RECORDED}; got {sorted(bad)}")
         kind, _, par = args.rewrite.partition(":")

@@ -16,7 +16,6 @@ from tmopt.mismatch.effects import Injection
 from tmopt.mismatch.effects.glitch import glitch_interval_average
 from tmopt.mismatch.fit import (
     ACC_CONVENTIONS,
-    EULER_CONVENTIONS,
     data_from_recording,
     kinematic_coefficients,
     kinematic_target,
@@ -118,17 +117,20 @@ def test_the_foreign_simulator_shares_no_physics_code_with_the_kernel():
 def test_the_exact_kinematic_relation_holds_on_the_independent_integrator(convention):
     """A nearly noise-free foreign recording at LPF-like stiffness obeys the exact ZOH
     relation of its accelerometer convention to rounding, and the k = 0 form misses by the
-    ~k h^3 v/2 term (held, end) -- RK4 and the derivation agree; an Euler step per sample
-    obeys its own (``symplectic``, ``explicit``: docs/mismatch.md 9.26), and every other
-    relation misses each recording by far more."""
-    euler = convention in EULER_CONVENTIONS
+    ~k h^3 v/2 term (held, end) -- RK4 and the derivation agree; one Euler step per
+    sample obeys ``held`` with its half-step term, +1 (``symplectic``) or -1
+    (``explicit``; docs/mismatch.md 9.26), and every other relation misses each recording
+    by far more."""
+    euler = {"symplectic": 1.0, "explicit": -1.0}
     sc = replace(short(11, "foreign"), background=QUIET, gaps=(),
-                 acc_convention="held" if euler else convention,
-                 integrator=convention if euler else "rk4",
+                 acc_convention="held" if convention in euler else convention,
+                 integrator=convention if convention in euler else "rk4",
                  stiffness=(2e-6, -2e-6, 1.5e-6, -1e-6), force_stamp="applied")  # fmt: skip
     rec, _ = realistic_recording(sc, seed=11, backend="foreign", gaps=False)
     d = data_from_recording(rec)
-    d.acc_convention, d.stiffness = convention, np.array(sc.stiffness)
+    d.acc_convention = "held" if convention in euler else convention
+    d.stiffness = np.array(sc.stiffness)
+    d.halfstep = euler.get(convention, 0.0)
     exact = np.abs(kinematic_target(d)[:2]).max()
     d0 = data_from_recording(rec)
     d0.acc_convention, d0.stiffness = "held", np.zeros(4)
@@ -137,8 +139,9 @@ def test_the_exact_kinematic_relation_holds_on_the_independent_integrator(conven
     assert exact < 1e-9 * scale
     if convention != "mean":
         assert naive > 1e3 * exact
-    for other in set(ACC_CONVENTIONS + EULER_CONVENTIONS) - {convention}:  # each its own
-        d.acc_convention = other
+    others = [(c, 0.0) for c in ACC_CONVENTIONS] + [("held", b) for b in euler.values()]
+    for other in set(others) - {(d.acc_convention, d.halfstep)}:  # each relation its own
+        d.acc_convention, d.halfstep = other
         assert np.abs(kinematic_target(d)[:2]).max() > 1e3 * exact, other
 
 
@@ -158,9 +161,14 @@ def test_kinematic_coefficients_reduce_to_the_k0_relation_and_match_closed_forms
     cp, cm, g = kinematic_coefficients(k, h, "end")  # held's relation divided by C
     assert np.allclose(cp, 1 / c, rtol=1e-14) and np.allclose(cm, 1 + 1 / c, rtol=1e-14)
     assert np.allclose(g, (c - 1) / (k * c), rtol=1e-10)
-    for conv in EULER_CONVENTIONS:  # exact at any k: h^2 times one acceleration
-        cp, cm, g = kinematic_coefficients(k, h, conv)
-        assert np.all(cp == 1) and np.all(cm == 2) and np.all(g == h * h)
+    for beta in (1.0, -1.0):  # one Euler step: exact at any k, h^2/2 (a_n + a_n +- ...)
+        cp, cm, g = kinematic_coefficients(k, h, "held", beta)
+        assert np.all(cp == 1) and np.all(cm == 2) and np.allclose(g, h * h / 2, rtol=1e-15)
+    cp, cm, g = kinematic_coefficients(k, h, "held", 0.25)  # sub-steps: a weighted mean
+    ch, mh, gh = kinematic_coefficients(k, h, "held")
+    assert np.allclose(cp, 0.75 * ch + 0.25) and np.allclose(g, 0.75 * gh + 0.25 * h * h / 2)
+    with pytest.raises(ValueError, match="half-step term goes with the 'held'"):
+        kinematic_coefficients(k, h, "mean", 0.5)
 
 
 def test_injected_catalogue_effects_reach_both_simulators():

@@ -1437,15 +1437,23 @@ def prepare(data: Data, stiffness: np.ndarray | None = None,
         k = np.asarray(stiffness, float).copy()
     data.stiffness = k
     conv, info = choose_acc_convention(data, k, nuisance)
-    data.acc_convention = conv
+    data.acc_convention, data.halfstep = conv, float(info.get("halfstep", 0.0))
     data.__dict__.pop("_x_eq", None)
     data.usage["acc_convention"] = conv
+    data.usage["kinematic_halfstep"] = data.halfstep
     data.usage["acc_convention_evidence"] = info
     if info.get("from") != "attribute":
         how = ("chosen from the data" if info.get("decided") else
                "kept (the data cannot tell the conventions apart: below the noise)")
         data.notes.append(f"kinematic check: exact ZOH relation with the accelerometer "
-                          f"sampling convention '{conv}' ({how})")  # fmt: skip
+                          f"sampling convention '{conv}' ({how})" if not data.halfstep else
+                          f"kinematic check: the readout's second difference follows the "
+                          f"acceleration half a step away from a ZOH step (half-step term "
+                          f"{data.halfstep:+.4g}: +1 one symplectic Euler or Verlet step per "
+                          f"sample, -1 one explicit Euler step, +-1/N N sub-steps; chosen "
+                          f"from the data) -- a simulator's integrator, or the readout and "
+                          f"accelerometer clocks apart by {-data.halfstep / 2:+.3g} sample on "
+                          f"every axis")  # fmt: skip
     return data, basis
 
 

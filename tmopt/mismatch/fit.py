@@ -26,7 +26,13 @@ samples obey exactly (``C = cosh(sqrt(k) h)``, ``g = (C - 1)/k``; both real for 
 * accelerometer sampling ``end`` (``a_n = k r(t_{n+1}) + u_n``, read after the step):
   ``C x_{n+1} - (1 + C) x_n + x_{n-1} = g (a_n + a_{n-1})``
 
-(:func:`kinematic_coefficients`; derivation in docs/mismatch.md 9.4, 9.25).  All reduce to
+(:func:`kinematic_coefficients`; derivation in docs/mismatch.md 9.4, 9.25).  A simulator
+that takes Euler steps and records the acceleration at the sample obeys the ``held`` form
+with a *half-step* term, ``beta g (a_n - a_{n-1})`` beside ``g (a_n + a_{n-1})``: ``beta``
+= +1 for one symplectic Euler (or Verlet) step per sample (``x_{n+1} - 2 x_n + x_{n-1} =
+h^2 a_n`` exactly, at any k), -1 for one explicit Euler step (``h^2 a_{n-1}``), ``+-1/N``
+for N sub-steps (``Data.halfstep``, chosen from the data: :func:`_halfstep`; 9.26).  The
+ZOH relations reduce to
 ``h^2/2`` at k = 0; ``held`` and ``end`` differ from the k = 0 form by ``~k h^3 v/2``, which
 at LPF-like |k| ~ 1e-6..2e-6 s^-2 reaches ~1e-13 m per sample at 2 Hz.  k is the
 equation group's estimate; the convention is read from the recording's ``acc_sampling``
@@ -113,6 +119,8 @@ class Data:
     segments: list[tuple[int, int]] | None = None
     usage: dict = field(default_factory=dict)
     acc_convention: str = "held"
+    # the kinematic relation's half-step coefficient (Euler steps; 0: the ZOH relations)
+    halfstep: float = 0.0
     stiffness: np.ndarray | None = None  # k per axis for the exact kinematics (None: 0)
     # the stiffness regressors on the true position: the readout noise taken out
     # (:mod:`tmopt.mismatch.true_position`); False: on the readout as recorded
@@ -144,7 +152,7 @@ class Data:
         (:func:`tmopt.mismatch.true_position.readout_noise`; the readout itself when
         ``true_position`` is False): ``k n_r`` is correlated with the force the loop makes
         from ``n_r`` (docs/mismatch.md 9.19)."""
-        key = (self.acc_convention, self.true_position,
+        key = (self.acc_convention, self.halfstep, self.true_position,
                None if self.stiffness is None else np.asarray(self.stiffness, float).tobytes())
         cache = self.__dict__.setdefault("_x_eq", {})
         if key not in cache:
@@ -288,13 +296,12 @@ def _valid_segments(rec) -> tuple[list[slice], dict, list[str]]:
 #: The recording attribute naming the accelerometer's sampling convention.
 ACC_ATTRIBUTE = "acc_sampling"
 ACC_CONVENTIONS = ("held", "mean", "end")
-#: Recordings made by an Euler integrator, one step per sample with the acceleration at the
-#: step's start (``a_n = k r_n + u_n``, the one the step used): ``symplectic`` (``v += h a;
-#: r += h v``) obeys ``x_{n+1} - 2 x_n + x_{n-1} = h^2 a_n``, ``explicit`` (``r += h v;
-#: v += h a``) ``... = h^2 a_{n-1}`` -- exactly, at any k (docs/mismatch.md 9.26).  Against
-#: the ZOH relations they sit half a step apart in the kinematic group; in Eq. 10 they are
-#: ``held``.  Chosen from the data (:func:`_euler_convention`); () turns them off.
-EULER_CONVENTIONS = ("symplectic", "explicit")
+#: ``acc_sampling`` values of an Euler integrator's recording (the acceleration at the
+#: sample, the one its step used; in Eq. 10 that is ``held``) -> the half-step coefficient
+#: of its kinematic relation (:func:`kinematic_coefficients`; docs/mismatch.md 9.26).
+HALFSTEP_ATTRIBUTES = {"symplectic": 1.0, "explicit": -1.0}
+#: Estimate a half-step term from the data (:func:`_halfstep`); False: stop 49's tool.
+HALFSTEP = True
 
 
 def data_from_recording(rec) -> Data:
@@ -333,13 +340,16 @@ def data_from_recording(rec) -> Data:
         segments=bounds,
         usage=usage,
     )  # fmt: skip
-    if conv in ACC_CONVENTIONS + EULER_CONVENTIONS:
+    if conv in HALFSTEP_ATTRIBUTES:
+        data.acc_convention, data.halfstep = "held", HALFSTEP_ATTRIBUTES[conv]
+        data.usage["acc_convention_from"] = "attribute"
+    elif conv in ACC_CONVENTIONS:
         data.acc_convention = conv
         data.usage["acc_convention_from"] = "attribute"
     elif conv:
         data.notes.append(f"attribute {ACC_ATTRIBUTE}={conv!r} is not one of "
-                          f"{ACC_CONVENTIONS + EULER_CONVENTIONS}: the convention is chosen "
-                          "from the data")
+                          f"{ACC_CONVENTIONS + tuple(HALFSTEP_ATTRIBUTES)}: the convention is "
+                          "chosen from the data")
     return data
 
 
@@ -482,7 +492,7 @@ def data_from_result(result, i: int = 0) -> Data:
     )
 
 
-def kinematic_coefficients(k: np.ndarray, h: float, convention: str):
+def kinematic_coefficients(k: np.ndarray, h: float, convention: str, halfstep: float = 0.0):
     """Per-axis exact ZOH kinematic coefficients for stiffness ``k`` (4,).
 
     Returns ``(c_prev, c_mid, g)`` with the relation ``x_{n+1} - c_mid x_n + c_prev x_{n-1}
@@ -493,7 +503,22 @@ def kinematic_coefficients(k: np.ndarray, h: float, convention: str):
     replaced by what the accelerometer read (docs/mismatch.md 9.4, 9.25); power series
     in ``z = k h^2`` (|z| < 1e-4 here, so 6 terms are exact to double precision and k < 0
     needs no complex square root).
+
+    ``halfstep`` (``beta``, ``held`` only; the relation's acceleration term is then ``g
+    ((a_n + a_{n-1}) + beta (a_n - a_{n-1}))``, :func:`acc_sum`): Euler steps with the
+    acceleration at the sample.  One step per sample (``beta`` = +-1) is exact with ``(1,
+    2, h^2/2)`` at any k (the recorded ``a_n`` holds ``k r_n``); N sub-steps give ``beta =
+    +-1/N`` and k terms between the two forms -- taken as the ``|beta|``-weighted mean of
+    the Euler and ``held`` coefficients, which leaves 1e-8 of the second difference on
+    noise-free sub-stepped recordings at |k| = 2e-6 (either form alone 1e-6;
+    docs/mismatch.md 9.26).
     """
+    if halfstep and convention != "held":
+        raise ValueError(f"a half-step term goes with the 'held' convention; got {convention!r}")
+    if halfstep:
+        w = min(abs(float(halfstep)), 1.0)
+        c_prev, c_mid, g = kinematic_coefficients(k, h, "held")
+        return (1 - w) * c_prev + w, (1 - w) * c_mid + 2 * w, (1 - w) * g + w * h * h / 2
     z = np.asarray(k, float) * h * h
     # cosh(sqrt z) = sum z^j/(2j)!, (C - 1)/z = sum z^j/(2j+2)!,
     # sinh(sqrt z)/sqrt z = sum z^j/(2j+1)!
@@ -508,11 +533,7 @@ def kinematic_coefficients(k: np.ndarray, h: float, convention: str):
         return one, 2.0 * one, h * h * cm1_z / sinh_z
     if convention == "end":
         return 1.0 / cosh, 1.0 + 1.0 / cosh, h * h * cm1_z / cosh
-    if convention in EULER_CONVENTIONS:  # g multiplies a_n or a_{n-1} alone (acc_sum)
-        one = np.ones_like(z)
-        return one, 2.0 * one, h * h * one
-    raise ValueError(f"convention must be one of {ACC_CONVENTIONS + EULER_CONVENTIONS}; "
-                     f"got {convention!r}")
+    raise ValueError(f"convention must be one of {ACC_CONVENTIONS}; got {convention!r}")
 
 
 def fb_projection(geometry: Geometry) -> np.ndarray:
@@ -592,18 +613,17 @@ def nominal_equation_columns(data: Data, basis: np.ndarray,
 
 def _kin_coefficients(data: Data):
     k = np.zeros(4) if data.stiffness is None else np.asarray(data.stiffness, float)
-    return kinematic_coefficients(k, data.dt, data.acc_convention)
+    return kinematic_coefficients(k, data.dt, data.acc_convention, data.halfstep)
 
 
 def acc_sum(data: Data) -> np.ndarray:
-    """The accelerations (4, rows) that ``g`` multiplies in the convention's relation:
-    ``a_n + a_{n-1}`` (ZOH conventions), ``a_n`` (``symplectic``), ``a_{n-1}``
-    (``explicit``); one row per ``Data.kin_index`` sample."""
+    """The accelerations (4, rows) that ``g`` multiplies in the relation: ``a_n + a_{n-1}``,
+    with a half-step term ``beta (a_n - a_{n-1})`` beside it (``Data.halfstep``: Euler
+    steps); one row per ``Data.kin_index`` sample."""
     n = data.kin_index
-    if data.acc_convention == "symplectic":
-        return data.acc[:, n]
-    if data.acc_convention == "explicit":
-        return data.acc[:, n - 1]
+    if data.halfstep:
+        beta = float(data.halfstep)
+        return (1 + beta) * data.acc[:, n] + (1 - beta) * data.acc[:, n - 1]
     return data.acc[:, n] + data.acc[:, n - 1]
 
 
@@ -860,16 +880,16 @@ def choose_acc_convention(data: Data, k: np.ndarray,
     ``held`` fits worse), each with ``_delay_free`` for the first pass.
     """
     if data.usage.get("acc_convention_from") == "attribute":
-        return data.acc_convention, {"from": "attribute"}
+        return data.acc_convention, {"from": "attribute", "halfstep": data.halfstep}
     basis = null_basis(data.geometry)
-    info: dict = {}
-    euler, info["euler"] = _euler_convention(data)
-    if euler is not None:  # in Eq. 10 an Euler recording is held: the equation must allow it
+    info: dict = {"halfstep": 0.0}
+    beta, info["halfstep_evidence"] = _halfstep(data, k)
+    if beta:  # Euler steps record the acceleration at the sample: Eq. 10 must allow held
         rss = _equation_rss(data, basis, ACC_CONVENTIONS, DELAY_NUISANCE, nuisance)
         info["equation_lr_held_vs_best"] = _lr(data, rss["held"], min(rss.values()))
         if info["equation_lr_held_vs_best"] < DECIDE_LR:
-            info["decided"], info["by"] = True, "kinematic group (Euler half step)"
-            return euler, info
+            info.update(halfstep=beta, decided=True, by="kinematic group (half-step term)")
+            return "held", info
     left, fittest = list(ACC_CONVENTIONS), "held"
     passes = [(True, left)] if DELAY_NUISANCE else []
     for delay, among in passes + [(False, ["held", "mean"])]:
@@ -905,7 +925,9 @@ def _equation_rss(data: Data, basis: np.ndarray, conventions: Sequence[str], del
     delay columns and ``nuisance`` beside the nominal columns)."""
     rss = {}
     for conv in conventions:
-        probe = replace(data, acc_convention=conv, notes=[])
+        # a half-step term goes with held (the true position's relation keeps it)
+        probe = replace(data, acc_convention=conv, notes=[],
+                        halfstep=data.halfstep if conv == "held" else 0.0)  # fmt: skip
         probe.__dict__.pop("_x_eq", None)
         cols = nominal_equation_columns(probe, basis)
         cols += _step_mean_columns(probe, basis) if delay else []
@@ -933,61 +955,95 @@ def _step_mean_columns(data: Data, basis: np.ndarray) -> list[Column]:
     return out
 
 
-#: An Euler convention is taken when every excited axis's half-step coefficient is within
-#: EULER_TOLERANCE of the convention's (+1 symplectic, -1 explicit) and EULER_Z standard
-#: errors from the ZOH relations' 0.  A readout stamped ``tau`` late on one axis has
-#: ``beta = -2 tau/h`` there and 0 elsewhere, so only a timing of ~h/2 on every excited
-#: axis reads as Euler (physically the same relation; docs/mismatch.md 9.26).
-EULER_TOLERANCE = 0.25
-EULER_Z = 10.0
+#: A half-step term is taken (:func:`_halfstep`) when its combined estimate is
+#: HALFSTEP_Z standard errors from 0, at least two axes see it (HALFSTEP_AXIS_Z each) and
+#: every excited axis agrees (within 4 of its standard errors and HALFSTEP_SLACK of the
+#: value).  A readout stamped ``tau`` late on one axis has ``beta = -2 tau/h`` there and
+#: 0 elsewhere, so it is never taken; the same timing on every excited axis is the same
+#: relation as Euler steps, and is (docs/mismatch.md 9.26).
+HALFSTEP_Z = 10.0
+HALFSTEP_AXIS_Z = 5.0
+HALFSTEP_SLACK = 0.02
 
 
-def _euler_convention(data: Data) -> tuple[str | None, dict]:
-    """Is the recording an Euler integrator's (:data:`EULER_CONVENTIONS`)?
+def _halfstep(data: Data, k: np.ndarray) -> tuple[float, dict]:
+    """The kinematic relation's half-step coefficient ``beta`` (0: the ZOH relations).
 
-    The k = 0 ZOH residual ``x_{n+1} - 2 x_n + x_{n-1} - (h^2/2)(a_n + a_{n-1})`` of an
-    Euler recording is ``beta (h^2/2)(a_n - a_{n-1})`` with ``beta`` = +1 (``symplectic``)
-    or -1 (``explicit``), exactly and at any k (the ZOH relations' own k terms are
-    ~k h^2 v, some 1e-3 of this at the tones); ``beta`` is estimated per excited axis by
-    instrumental variables (the excitation tones: the loop puts readout noise into the
-    acceleration).  Returns the convention (None: the ZOH relations) and per-axis
-    ``beta``/``se`` (white standard error: the second difference's blue noise makes it
-    conservative).
+    Under ``held`` with the equation group's ``k``, the residual of a recording whose
+    relation has half-step ``beta`` is ``|beta|`` times the change from ``beta = 0`` to
+    ``sign(beta)`` (:func:`kinematic_coefficients`: the term and its k coefficients;
+    affine in ``|beta|`` to O(k h^2)); ``beta`` is estimated per excited axis
+    (:func:`_halfstep_fit`) and taken by the rule of :data:`HALFSTEP_Z`.  At a tone of
+    angular frequency w the ZOH conventions' stiffness terms look like a half-step of
+    ``~k/w^2`` (1e-2 for a 500 s tone at k 2e-6, more for slower ones), so a term is
+    taken only if it is also seen against ``mean`` and ``end``: a recording that one of
+    the ZOH relations fits has none.  Returns ``beta`` (snapped to +-1 within 3 standard
+    errors) or 0, and the evidence: per axis and ``combined`` under ``held``, and the
+    ``combined`` of the others (``vs_mean``, ``vs_end``).
     """
     info: dict = {}
-    if not EULER_CONVENTIONS:
-        return None, info
-    probe = replace(data, stiffness=np.zeros(4), acc_convention="mean", notes=[])
+    if not HALFSTEP:
+        return 0.0, info
+    rows, info = _halfstep_fit(data, k, "held")
+    if not rows:
+        return 0.0, info
+    b, s = np.array(rows).T
+    beta, se = info["combined"]["beta"], info["combined"]["se"]
+    seen = int(np.sum(np.abs(b) > HALFSTEP_AXIS_Z * s))
+    agree = bool(np.all(np.abs(b - beta) < 4.0 * s + HALFSTEP_SLACK * abs(beta)))
+    if abs(beta) < HALFSTEP_Z * se or seen < 2 or not agree or abs(beta) > 1.0 + 3.0 * se:
+        return 0.0, info
+    for conv in ACC_CONVENTIONS:
+        if conv != "held":
+            other = _halfstep_fit(data, k, conv)[1]["combined"]
+            info[f"vs_{conv}"] = other
+            if abs(other["beta"]) < HALFSTEP_Z * other["se"]:
+                return 0.0, info
+    return (math.copysign(1.0, beta) if abs(abs(beta) - 1.0) < 3.0 * se else beta), info
+
+
+def _halfstep_fit(data: Data, k: np.ndarray, convention: str) -> tuple[list, dict]:
+    """Per excited axis, the half-step coefficient of the residual under ``convention``
+    (with ``k``) by instrumental variables (the excitation tones: the loop puts readout
+    noise into the acceleration), its standard error from the residual beside the tones
+    (:func:`sideband_se`); and their inverse-variance ``combined``.  Under ``held`` the
+    regressor is the change of the whole relation to ``beta = +-1`` (the side read from
+    the term alone), under the others the term ``g (a_n - a_{n-1})`` itself."""
+    probe = replace(data, stiffness=np.asarray(k, float), acc_convention=convention,
+                    halfstep=0.0, notes=[])  # fmt: skip
     probe.__dict__.pop("_tones", None)
-    y = kinematic_target(probe)
+    y0 = kinematic_target(probe)
     n = data.kin_index
-    betas = []
+    if convention == "held":
+        step = {s: y0 - kinematic_target(replace(probe, halfstep=s)) for s in (1.0, -1.0)}
+    else:
+        g = np.asarray(_kin_coefficients(probe)[2], float)[:, None]
+        term = g * (data.acc[:, n] - data.acc[:, n - 1])
+        step = {1.0: term, -1.0: -term}
+    rows, info = [], {}
     for a in range(4):
         tones = data.tones(a)
         if not tones:
             continue
-        reg = 0.5 * data.dt**2 * (data.acc[a, n] - data.acc[a, n - 1])
+        up = float(tone_instrument(step[1.0][a], data.time[n], tones) @ y0[a]) >= 0
+        sign = 1.0 if up else -1.0
+        reg = step[sign][a]
         z = tone_instrument(reg, data.time[n], tones)
         zz = float(z @ reg)
         if zz == 0:
             continue
-        beta = float(z @ y[a]) / zz
-        se = sideband_se(z, y[a] - beta * reg, data.time[n]) / abs(zz)
-        betas.append((beta, se))
-        info[AXES[a]] = {"beta": beta, "se": se}
-    if not betas:
-        return None, info
-    b, s = np.array(betas).T
-    w = 1.0 / s**2
-    beta, se = float(np.sum(w * b) / np.sum(w)), float(1.0 / math.sqrt(np.sum(w)))
-    info["combined"] = {"beta": beta, "se": se}
-    predicted = {"symplectic": 1.0, "explicit": -1.0}
-    for conv in EULER_CONVENTIONS:
-        p = predicted[conv]
-        if (abs(beta - p) < EULER_TOLERANCE and abs(beta) > EULER_Z * se
-                and np.all(np.abs(b - p) < np.maximum(EULER_TOLERANCE, 3.0 * s))):  # fmt: skip
-            return conv, info
-    return None, info
+        size = float(z @ y0[a]) / zz  # |beta| on that side
+        se = sideband_se(z, y0[a] - size * reg, data.time[n]) / abs(zz)
+        rows.append((sign * size, se))
+        info[AXES[a]] = {"beta": sign * size, "se": se}
+    if rows:
+        b, s = np.array(rows).T
+        w = 1.0 / np.maximum(s, 1e-300) ** 2
+        info["combined"] = {"beta": float(np.sum(w * b) / np.sum(w)),
+                            "se": float(1.0 / math.sqrt(np.sum(w)))}  # fmt: skip
+    else:
+        info["combined"] = {"beta": 0.0, "se": math.inf}
+    return rows, info
 
 
 #: Sideband offsets (in units of 1/T) of :func:`sideband_se`: clear of a tone's main lobe.
@@ -1021,7 +1077,8 @@ def _kinematic_convention(data: Data, k: np.ndarray, left: Sequence[str] = ACC_C
     misfit) when the predictions are 2 standard errors apart, else ``default``."""
     info: dict = {}
     predicted = {"held": 1.0, "mean": 0.0, "end": -1.0}  # gamma / k
-    probe = replace(data, stiffness=np.zeros(4), acc_convention="mean", notes=[])
+    probe = replace(data, stiffness=np.zeros(4), acc_convention="mean", halfstep=0.0,
+                    notes=[])  # fmt: skip
     probe.__dict__.pop("_tones", None)
     y = kinematic_target(probe)
     n = data.kin_index

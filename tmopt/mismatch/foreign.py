@@ -299,7 +299,10 @@ def run_foreign(plan) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
         v0 = list(v)
         cut = max(split) if any(s > 0 for s in split) else 0.0
         if sc.integrator != "rk4":
-            _euler_step(sc.integrator, r, v, acc_held, h)
+            m = sc.substeps
+            for j in range(m):  # the first sub-step's acceleration is the recorded one
+                a_j = acc_held if j == 0 else accel(tt + j * h / m, i, r, v, over_step)
+                _euler_step(sc.integrator, r, v, a_j, h / m)
         elif cut > 0:
             # integrate to the latest switch with each axis's early/late command: split the
             # step at every distinct switch time

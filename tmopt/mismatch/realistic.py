@@ -123,7 +123,8 @@ class Scenario:
     [t_{n-1}, t_n)).  ``integrator`` (foreign only): ``rk4`` (the default), or a simulator
     that takes one Euler step per sample with the acceleration at the step's start and
     records that acceleration -- ``symplectic`` (``v += h a; r += h v``) or ``explicit``
-    (``r += h v; v += h a``); never drawn (docs/mismatch.md 9.26).
+    (``r += h v; v += h a``), with ``substeps`` Euler steps per sample (the first one's
+    acceleration recorded); never drawn (docs/mismatch.md 9.26).
     """
 
     duration: float = 1800.0
@@ -140,6 +141,7 @@ class Scenario:
     acc_convention: str = "mean"
     force_stamp: str = "applied"
     integrator: str = "rk4"  # INTEGRATORS
+    substeps: int = 1  # Euler steps per sample
 
     @property
     def n(self) -> int:
@@ -165,6 +167,8 @@ class Scenario:
         d["excitation"] = self.excitation_spec()
         if self.integrator == "rk4":  # the read sets' truths (and names) as they were
             del d["integrator"]
+        if self.substeps == 1:
+            del d["substeps"]
         return d
 
 
@@ -711,6 +715,12 @@ def _check_integrator(scenario: Scenario, backend: str) -> None:
                          f"{scenario.acc_convention!r}")
     if scenario.integrator not in INTEGRATORS:
         raise ValueError(f"integrator must be one of {INTEGRATORS}; got {scenario.integrator!r}")
+    if isinstance(scenario.substeps, bool) or not isinstance(scenario.substeps, int) \
+            or not 1 <= scenario.substeps <= 100:  # fmt: skip
+        raise ValueError(f"substeps must be an integer in [1, 100]; got {scenario.substeps!r}")
+    if scenario.substeps > 1 and scenario.integrator == "rk4":
+        raise ValueError(f"substeps={scenario.substeps} goes with an Euler integrator "
+                         f"{INTEGRATORS[1:]}; got integrator 'rk4'")
     if scenario.integrator != "rk4" and backend != "foreign":
         raise ValueError(f"integrator={scenario.integrator!r} needs backend 'foreign' (the "
                          f"kernel steps exactly); got backend {backend!r}")

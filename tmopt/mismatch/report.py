@@ -451,7 +451,9 @@ def _data_line(rep: dict) -> str:
         return ""
     return (f"Data used: {u.get('samples_used')} of {u.get('samples_recorded')} samples "
             f"({100 * u.get('fraction_used', 1.0):.1f} %) in {u.get('segments_used')} gap-free "
-            f"segment(s); accelerometer convention {u.get('acc_convention', 'held')}.")
+            f"segment(s); accelerometer convention {u.get('acc_convention', 'held')}"
+            + (f", half-step term {u['kinematic_halfstep']:+.4g} (Euler steps)"
+               if u.get("kinematic_halfstep") else "") + ".")  # fmt: skip
 
 
 def _markdown(rep: dict, figs: list[str]) -> str:
