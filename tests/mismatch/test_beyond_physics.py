@@ -44,6 +44,7 @@ def test_the_range_must_be_excluded_by_the_data(value, sigma, beyond):
         assert reason.startswith("cannot diagnose:") and "|kdot| <= 1e-08" in reason
 
 
+@pytest.mark.slow  # a diagnosis study of 12-60 s: CI's 15 min (`make test-slow`)
 def test_a_drift_at_its_limit_is_named():
     rep = build_report(diagnose(data_from_recording(benchmark_cases.recording("foreign",
                                                                               170051))))

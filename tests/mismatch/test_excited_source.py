@@ -30,6 +30,7 @@ def _named(rep) -> list[tuple[str, str]]:
     return sorted((e["name"], e["channel"]) for e in rep["effects"])
 
 
+@pytest.mark.slow  # a diagnosis study of 12-60 s: CI's 15 min (`make test-slow`)
 def test_a_cross_talk_from_an_excited_axis_is_named_beside_a_gain():
     dg = diagnose(data_from_recording(_recording()))
     assert dg.data.tones(2)  # y1 (the source) is excited
@@ -42,6 +43,7 @@ def test_a_cross_talk_from_an_excited_axis_is_named_beside_a_gain():
     assert abs(c - (-2.3027e-4)) < 5 * sigma < 0.5 * 2.3027e-4  # truth, within 5 sigma
 
 
+@pytest.mark.slow  # a diagnosis study of 12-60 s: CI's 15 min (`make test-slow`)
 def test_with_the_tone_instrument_the_same_cross_talk_is_too_weak_to_name(monkeypatch):
     """The failure the rule fixes: the rule off (the tone part as instrument) and the
     kinematic group read under the null's noise model only (``kin_refit=False``, the tool

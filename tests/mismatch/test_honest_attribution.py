@@ -47,7 +47,7 @@ def _ooc(name: str, axis: str, backend: str, seed: int):
 
 @pytest.mark.parametrize(("name", "backend", "seed", "axis"), [
     ("position_abs", "kernel", 501, "x2"),
-    ("quadratic_stiffness", "kernel", 503, "x2"),
+    pytest.param("quadratic_stiffness", "kernel", 503, "x2", marks=pytest.mark.slow),  # 37 s
     ("xy_product", "kernel", 505, "x2"),
     ("position_abs", "foreign", 502, "x1"),
 ])  # fmt: skip
@@ -61,7 +61,8 @@ def test_nonlinear_and_product_forces_are_unexplained_not_named(name, backend, s
 
 
 @pytest.mark.parametrize(("backend", "seed", "axis"), [("kernel", 509, "x1"),
-                                                       ("foreign", 510, "x2")])  # fmt: skip
+                                                       pytest.param("foreign", 510, "x2",
+                                                                    marks=pytest.mark.slow)])
 def test_a_true_cubic_stiffness_keeps_its_name(backend, seed, axis):
     """The new features must not take a catalogue effect's place where it fits."""
     sc = draw_scenario(seed, backend)
@@ -72,6 +73,7 @@ def test_a_true_cubic_stiffness_keeps_its_name(backend, seed, axis):
         rep["conclusion"]  # fmt: skip
 
 
+@pytest.mark.slow  # a diagnosis study of 12-60 s: CI's 15 min (`make test-slow`)
 def test_a_large_delay_with_a_drift_gets_both_names():
     """The issue's foreign-simulator case (a 0.2 s actuation delay with a bias drift, once
     reported as the drift alone), on the independent simulator: both are named, nothing
@@ -120,6 +122,7 @@ def test_the_dac_step_is_found_to_the_precision_its_sawtooth_needs(seed, axis, s
     assert abs(q / q_true - 1) * steps < 0.01, (q, q_true, steps)
 
 
+@pytest.mark.slow  # a diagnosis study of 12-60 s: CI's 15 min (`make test-slow`)
 def test_a_slow_curved_bias_change_is_not_named_a_linear_drift():
     """A 1e-4 Hz bias modulation over a 40-minute record: mostly a ramp, but its curved
     part is above the noise, so the drift's shape check (Legendre P2 + P3 of time in the
@@ -160,6 +163,7 @@ def test_a_true_linear_stiffness_drift_keeps_its_name(backend, seed, axis):
         rep["conclusion"]  # fmt: skip
 
 
+@pytest.mark.slow  # a diagnosis study of 12-60 s: CI's 15 min (`make test-slow`)
 def test_a_thermal_relaxation_is_unexplained_not_glitches_or_a_drift():
     """A force relaxing exponentially to a new level (tau 100-600 s), on the independent
     simulator: the relaxation feature (onset and tau searched around the best steps)
@@ -249,6 +253,7 @@ def test_a_clipped_accelerometer_masked_leaves_the_rest_consistent():
         assert np.allclose(np.diff(kept.time[a:b]), data.dt)
 
 
+@pytest.mark.slow  # a diagnosis study of 12-60 s: CI's 15 min (`make test-slow`)
 def test_a_recording_refused_for_its_clipped_samples_is_diagnosed_without_them(monkeypatch):
     """Benchmark recording foreign 170137 (a set already read, eighteenth run): acc_x2
     clipped at its 90 % quantile.  Read as measurements, the clipped samples make the best
@@ -270,6 +275,7 @@ def test_a_recording_refused_for_its_clipped_samples_is_diagnosed_without_them(m
     assert "acc_x2 saturated" in rep["conclusion"]
 
 
+@pytest.mark.slow  # a diagnosis study of 12-60 s: CI's 15 min (`make test-slow`)
 def test_a_clipped_accelerometer_read_as_measured_is_unexplained_at_its_axis(clipped):
     """Out of catalogue: the x2 accelerometer clipped at 80 % of its range, its rail
     samples read as measurements (``rails="fallback"``: reading them does not refuse it).  The best
@@ -335,6 +341,7 @@ def _diagnosed_with_one_name_beyond_physics(monkeypatch, afresh: bool) -> tuple[
     return rep, sum(m.reused for m in memos)
 
 
+@pytest.mark.slow  # a diagnosis study of 12-60 s: CI's 15 min (`make test-slow`)
 def test_the_rerun_after_a_name_beyond_physics_reuses_tests_and_says_the_same(monkeypatch):
     """The selection rerun (a name beyond physics taken out) takes the tests of the states
     it passes through again from the first run's memo (diagnose._Evaluations): the memo
@@ -400,6 +407,7 @@ def test_a_late_displacement_readout_is_an_unexplained_timing_at_its_readout(bac
     assert got[0]["fitted"]["tau"]["value"] == pytest.approx(o.magnitude, rel=0.25)
 
 
+@pytest.mark.slow  # a diagnosis study of 12-60 s: CI's 15 min (`make test-slow`)
 def test_a_refusal_after_names_beyond_physics_keeps_their_notes(monkeypatch):
     """Nothing said is lost: when a recording is refused for a third explanation beyond
     physics, the two taken out before it are still named in the notes (every selected

@@ -89,6 +89,7 @@ def test_on_a_clean_recording_no_statistic_moves(backend):
     assert not moved, (moved, cal.KIN_REFIT_INFLATION)
 
 
+@pytest.mark.slow  # a diagnosis study of 12-60 s: CI's 15 min (`make test-slow`)
 def test_why_it_is_off_a_clean_record_whose_tone_sits_in_the_lowest_bins():
     """Calibration recording foreign 37117 (clean; y2 excited at a 440 s tone of 1.6e-4 m,
     in the lowest bins of 400-840 s pieces): its displacement scale of y2 reads 5.3 under

@@ -110,7 +110,8 @@ def _y1_force_glr(dg) -> float:
     return g.glr([Column("f_y1", axis_column(dg.basis, 2, dg.data.force[2]))])
 
 
-@pytest.mark.parametrize("backend,seed", [("kernel", 170028), ("foreign", 170020)])
+@pytest.mark.parametrize("backend,seed", [pytest.param("kernel", 170028, marks=pytest.mark.slow),
+                                          ("foreign", 170020)])  # fmt: skip
 def test_a_clean_recording_raises_no_force_term_on_the_true_position(backend, seed):
     data = data_from_recording(benchmark_cases.recording(backend, seed))
     dg = diagnose(data)

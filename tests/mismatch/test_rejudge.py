@@ -34,6 +34,7 @@ def _rotation_recording(seed: int, snr: float, backend: str = "kernel"):
     return realistic_recording(sc, [inj], [], seed, backend)[0]
 
 
+@pytest.mark.slow  # a diagnosis study of 12-60 s: CI's 15 min (`make test-slow`)
 def test_a_rotation_whose_evidence_the_nulls_noise_took_in_is_named():
     """Kernel seed 651, a slew at SNR 25: weak under the selection's noise model (delta BIC
     2.3), strong under the alternative's (statistic ~300); named, and the note says why.

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import functools
 
+import pytest
+
 from tmopt.mismatch import diagnose as dgn
 from tmopt.mismatch.report import build_report
 
@@ -26,6 +28,7 @@ def _diagnosed(backend: str, seed: int):
     return dgn.diagnose(data_from_recording(benchmark_cases.recording(backend, seed)))
 
 
+@pytest.mark.slow  # a diagnosis study of 12-60 s: CI's 15 min (`make test-slow`)
 def test_a_slow_curve_named_a_drift_on_another_axis_is_checked_where_it_lives():
     """Kernel 160119: a 1e-4 Hz bias modulation on x2 (SNR 40; 18.8 sigma from the best
     drift) is selected as ``bias_drift[y1]``, ``bias_drift[x2]`` 1.1 BIC behind.  P2 + P3
@@ -48,6 +51,7 @@ def test_a_slow_curve_named_a_drift_on_another_axis_is_checked_where_it_lives():
     assert rep["unexplained"] and "x2" in rep["unexplained_at"]["channels"]
 
 
+@pytest.mark.slow  # a diagnosis study of 12-60 s: CI's 15 min (`make test-slow`)
 def test_a_true_drift_checked_at_its_other_placement_keeps_its_name():
     """Foreign 160052: a true linear drift on x2 (SNR 20), ``bias_drift[y1]`` 3 BIC
     behind; the curvature with the drift on y1 has p 0.97, so the name stands -- the

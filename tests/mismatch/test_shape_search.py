@@ -80,6 +80,7 @@ def test_a_relaxation_that_p2_p3_let_pass_as_a_ramp_is_not_named_a_drift():
     assert json.loads(json.dumps(rep))["ambiguous"]  # plain JSON, as write_report needs
 
 
+@pytest.mark.slow  # a diagnosis study of 12-60 s: CI's 15 min (`make test-slow`)
 def test_a_kink_of_the_background_beside_a_true_drift_does_not_take_its_name(monkeypatch):
     """Kernel 33013: a true linear drift (SNR 60) on the 1/f^2 background; a step beside
     it is significant after its trials (p 0.0026, x3 checks 0.008) -- a random walk's kink --

@@ -39,6 +39,7 @@ def _names(rep: dict) -> list[tuple[str, str]]:
     return [(e["name"], e["channel"]) for e in rep["effects"]]
 
 
+@pytest.mark.slow  # a diagnosis study of 12-60 s: CI's 15 min (`make test-slow`)
 def test_a_gain_that_needs_an_unphysical_stiffness_is_not_named():
     """The gain is taken out, the delay is named in its place, and the final model no
     longer wants the gain (it is withdrawn from the ambiguities with a note)."""
