@@ -30,6 +30,27 @@ def _named(rep) -> list[tuple[str, str]]:
     return sorted((e["name"], e["channel"]) for e in rep["effects"])
 
 
+def test_a_readout_term_from_an_excited_axis_is_its_own_instrument(monkeypatch):
+    """The rule at the column (fast; the studies below show it on 160086): x1's readout
+    term driven by the excited x2 is fitted by least squares, its own axis's by the tone
+    part (the loop feeds x1's readout noise into acc_x1); the rule off, both by tones."""
+    from dataclasses import replace
+
+    from tmopt.mismatch.fit import null_basis
+    from tmopt.mismatch.realistic import draw_scenario, realistic_recording
+
+    sc = replace(draw_scenario(16201, "kernel"), duration=1200.0, sample_rate=2.0, gaps=())
+    data = data_from_recording(realistic_recording(sc, seed=16201, backend="kernel")[0])
+    ctx = base.Context(data, null_basis(data.geometry))
+    assert data.tones(0) and data.tones(1)
+    other = base.kinematic_column("x1<-x2", ctx, 0, 1)
+    own = base.kinematic_column("x1", ctx, 0, 0)
+    assert other.instrument is None and own.instrument is not None
+    assert abs(own.instrument[0]).max() > 0 and not own.instrument[1:].any()
+    monkeypatch.setattr(base, "EXCITED_SOURCE_OLS", False)
+    assert base.kinematic_column("x1<-x2", ctx, 0, 1).instrument is not None
+
+
 @pytest.mark.slow  # a diagnosis study of 12-60 s: CI's 15 min (`make test-slow`)
 def test_a_cross_talk_from_an_excited_axis_is_named_beside_a_gain():
     dg = diagnose(data_from_recording(_recording()))

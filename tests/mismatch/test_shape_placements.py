@@ -28,7 +28,6 @@ def _diagnosed(backend: str, seed: int):
     return dgn.diagnose(data_from_recording(benchmark_cases.recording(backend, seed)))
 
 
-@pytest.mark.slow  # a diagnosis study of 12-60 s: CI's 15 min (`make test-slow`)
 def test_a_slow_curve_named_a_drift_on_another_axis_is_checked_where_it_lives():
     """Kernel 160119: a 1e-4 Hz bias modulation on x2 (SNR 40; 18.8 sigma from the best
     drift) is selected as ``bias_drift[y1]``, ``bias_drift[x2]`` 1.1 BIC behind.  P2 + P3
