@@ -145,6 +145,39 @@ def test_the_exact_kinematic_relation_holds_on_the_independent_integrator(conven
         assert np.abs(kinematic_target(d)[:2]).max() > 1e3 * exact, other
 
 
+@pytest.mark.parametrize("substeps", [4, 10])
+def test_sub_stepped_euler_recordings_obey_the_half_step_relation_to_its_accuracy(substeps):
+    """N symplectic Euler sub-steps per sample: the half-step term is 1/N, and its k
+    coefficients, the |beta|-weighted mean of the one-step Euler and ``held`` forms, leave
+    ~1e-8 of the second difference where either form alone leaves ~1e-6 (at |k| = 2e-6,
+    nearly noise-free; docs/mismatch.md 9.26) -- an approximation, far below the readout
+    noise (the signal's second difference is ~1e-9 m here, the noise ~2e-11 m)."""
+    k = (2e-6, -2e-6, 1.5e-6, -1e-6)
+    sc = replace(short(11, "foreign"), background=QUIET, gaps=(), acc_convention="held",
+                 integrator="symplectic", substeps=substeps, stiffness=k)  # fmt: skip
+    rec, _ = realistic_recording(sc, seed=11, backend="foreign", gaps=False)
+    d = data_from_recording(rec)
+    d.stiffness, scale = np.array(k), np.abs(np.diff(rec["x1"], 2)).max()
+
+    def misfit(halfstep, k_form=None):
+        d.halfstep = halfstep
+        if k_form is None:
+            return np.abs(kinematic_target(d)[:2]).max() / scale
+        n, h = d.kin_index, d.dt
+        # k_form 1: one Euler step's (1, 2, h^2/2); 0: held's (C, 1 + C, (C - 1)/k)
+        cp, cm, g = (np.asarray(v)[:2, None] for v in kinematic_coefficients(
+            np.array(k), h, "held", k_form))  # fmt: skip
+        acc = (1 + halfstep) * d.acc[:2, n] + (1 - halfstep) * d.acc[:2, n - 1]
+        return np.abs(d.x[:2, n + 1] - cm * d.x[:2, n] + cp * d.x[:2, n - 1]
+                      - g * acc).max() / scale  # fmt: skip
+
+    got = misfit(1.0 / substeps)
+    assert got < 1e-7
+    assert misfit(1.0 / substeps, k_form=1.0) > 30 * got  # one Euler step's k form
+    assert misfit(1.0 / substeps, k_form=0.0) > 30 * got  # held's k form
+    assert misfit(0.0) > 1e3 * got and misfit(1.0) > 1e3 * got
+
+
 def test_kinematic_coefficients_reduce_to_the_k0_relation_and_match_closed_forms():
     h = 0.5
     for conv in ACC_CONVENTIONS:
