@@ -285,7 +285,15 @@ def scan(args) -> None:
     todo = [c for b in ("kernel", "foreign") for c in cases(b, args.seed_base, False, 2)
             if (c["backend"], c["seed"]) not in done]  # fmt: skip
     for i, case in enumerate(todo, 1):
-        rec, truth = _made(case)[:2]
+        try:
+            rec, truth = _made(case)[:2]
+        except Exception as exc:  # a diverged loop is reported, as the benchmark does
+            row = {"backend": case["backend"], "seed": case["seed"],
+                   "error": f"generation: {type(exc).__name__}: {exc}"}
+            with out.open("a") as fh:
+                fh.write(json.dumps(row) + "\n")
+            print(f"[{i}/{len(todo)}] {case['backend']} {case['seed']}: {row['error']}")
+            continue
         data, _ = prepare(data_from_recording(rec))
         ev = data.usage.get("acc_convention_evidence", {}).get("halfstep_evidence", {})
         row = {"backend": case["backend"], "seed": case["seed"],
