@@ -27,22 +27,29 @@ counts the alarms and the conventions chosen.
 scenario recorded ``end``, scored as the benchmark scores (``mismatch_realistic``):
 whether the tool keeps its power on such recordings, not only its silence.
 
-A simulator may also take one Euler step per sample and record the acceleration that
-step used (``symplectic``: ``v += h a; r += h v``; ``explicit``: ``r += h v; v += h a``):
-its readout's second difference is ``h^2 a_n`` or ``h^2 a_{n-1}``, half a step from every
-ZOH relation.  ``--conventions`` takes them too, and ``bench --recorded symplectic``
-records the benchmark's foreign cases that way; ``--tool three`` is the tool without the
-Euler conventions (stop 49's), ``euler`` (the default) the shipped one:
+A simulator may also take Euler steps and record the acceleration at the sample (the one
+its step used): one ``symplectic`` step per sample (``v += h a; r += h v``) makes the
+readout's second difference ``h^2 a_n``, one ``explicit`` step (``r += h v; v += h a``)
+``h^2 a_{n-1}``, N sub-steps ``h^2/2 ((a_n + a_{n-1}) +- (a_n - a_{n-1})/N)``: a half-step
+term beside the ZOH relation.  ``--conventions`` takes ``symplectic``, ``explicit`` and
+``symplectic10`` (N = 10) etc.; ``bench --recorded symplectic`` records the benchmark's
+foreign cases that way; ``--tool three`` is the tool without the half-step term (stop
+49's), ``halfstep`` (the default) the shipped one:
 
+    python experiments/mismatch_conventions.py survey --seeds 37164-37173 \
+        --conventions symplectic,explicit --tool three --out before.jsonl
     python experiments/mismatch_conventions.py survey --seeds 37164-37183 \
-        --conventions symplectic,explicit --tool three --out euler_before.jsonl
-    python experiments/mismatch_conventions.py survey --seeds 37164-37183 \
-        --conventions symplectic,explicit,held,mean,end --out euler.jsonl
-    python experiments/mismatch_conventions.py bench --n 20 --recorded symplectic \
-        --out results/mismatch_conventions/bench_symplectic.jsonl   # and --tool three
+        --conventions symplectic,explicit --out half.jsonl
+    python experiments/mismatch_conventions.py survey --seeds 37164-37173 \
+        --conventions symplectic10,explicit4,symplectic2 --out half.jsonl
+    python experiments/mismatch_conventions.py survey --seeds 37164-37173 \
+        --conventions held,mean,end --out half.jsonl
+    python experiments/mismatch_conventions.py bench --n 12 --recorded symplectic \
+        --out bench_sym_half.jsonl   # and --tool three; --recorded held, symplectic10
 
 ``scan --seed-base 240000`` reads the convention of every recording of a read benchmark
-set with the shipped tool: the Euler conventions must take none of them.
+set with the shipped tool: the half-step term must take none of them (where it takes
+none, the diagnosis is the one before it: nothing else changed).
 
 Rows are JSON lines (resumable: a (seed, convention, rewrite, tool) row already written
 is skipped); each row records the library versions of the run.
