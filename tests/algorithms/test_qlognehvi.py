@@ -63,6 +63,8 @@ def test_initial_sample_is_a_scrambled_sobol_design_of_2_d_plus_1():
     assert np.allclose(X, problem.xl + expected * (problem.xu - problem.xl))
 
 
+# a 26 s study (CI's 15 min; `make test-slow`): test_cli_run keeps BO iterations by default
+@pytest.mark.slow
 def test_bo_iterations_propose_q_new_points_and_count_every_evaluation():
     problem = PymooBenchmark("mw3", n_var=4)
     res = run(QLogNEHVI(n_init=8, **FAST), problem, budget=12, seed=1)

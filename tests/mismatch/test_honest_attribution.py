@@ -48,7 +48,7 @@ def _ooc(name: str, axis: str, backend: str, seed: int):
 @pytest.mark.parametrize(("name", "backend", "seed", "axis"), [
     ("position_abs", "kernel", 501, "x2"),
     pytest.param("quadratic_stiffness", "kernel", 503, "x2", marks=pytest.mark.slow),  # 37 s
-    ("xy_product", "kernel", 505, "x2"),
+    pytest.param("xy_product", "kernel", 505, "x2", marks=pytest.mark.slow),  # 8 s
     ("position_abs", "foreign", 502, "x1"),
 ])  # fmt: skip
 def test_nonlinear_and_product_forces_are_unexplained_not_named(name, backend, seed, axis):

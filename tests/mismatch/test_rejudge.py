@@ -80,6 +80,7 @@ def test_on_a_clean_recording_nothing_is_lifted_and_drifts_are_never_rejudged():
                 (backend, ev.candidate.key, ev.dbic)  # fmt: skip
 
 
+@pytest.mark.slow  # a 9 s diagnosis study: CI's 15 min (`make test-slow`)
 def test_a_near_alternative_the_data_still_need_the_effect_beside_is_no_rival():
     """Kernel seed 674, a displacement cross-talk y1<-x1 at SNR 20 (the 150000 set's
     k150060 pattern): at its greedy step a stiffness cross-coupling y1<-x1 of the equation

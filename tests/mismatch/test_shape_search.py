@@ -99,6 +99,7 @@ def test_a_kink_of_the_background_beside_a_true_drift_does_not_take_its_name(mon
     assert [m["key"] for m in ungated] == [key], ungated
 
 
+@pytest.mark.slow  # a 8 s diagnosis study: CI's 15 min (`make test-slow`)
 def test_a_relaxation_that_only_ties_with_a_true_ramp_does_not_replace_it():
     """Kernel 33012: a true linear drift (SNR 20) beside which a step is significant after
     its trials (p 7e-5); in the drift's place the best relaxation -- a long tau is a ramp --
@@ -116,7 +117,7 @@ def test_a_relaxation_that_only_ties_with_a_true_ramp_does_not_replace_it():
     assert not step["replaced"] and not relax["replaced"]
 
 
-@pytest.mark.parametrize("search", [True, False])
+@pytest.mark.parametrize("search", [pytest.param(True, marks=pytest.mark.slow), False])  # 12 s
 def test_the_searched_checks_are_listed_only_with_the_switch(search):
     """``search=False`` is the check before stop 41: P2 + P3 alone, one entry in
     ``checks``; with it, the step and the relaxation follow, each with its in-place

@@ -127,6 +127,8 @@ def test_a_resume_that_crashes_while_replaying_keeps_the_whole_archive(tmp_path)
     _same_archives(again.archive, whole.archive, with_wall_time=True)
 
 
+# a 28 s study (CI's 15 min; `make test-slow`): a SIGKILLed run's resume stays by default
+@pytest.mark.slow
 def test_killed_sweep_skips_finished_runs_and_resumes_the_unfinished(tmp_path):
     sweep = ["-m", *SLOW_RUN, "seed=0,1", f"hydra.sweep.dir={tmp_path}"]
     run0 = tmp_path / _run_folder(SLOW_RUN, "seed=0")

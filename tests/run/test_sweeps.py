@@ -77,6 +77,8 @@ def test_paper_preset_gives_the_mgsaea_family_697_real_evaluations_at_18_variabl
             assert (algo.pop_size, algo.gap, algo.sigma) == (100, 20, 1e-3)
 
 
+# a 35 s study (CI's 15 min; `make test-slow`): test_sweep_resume keeps a sweep end to end
+@pytest.mark.slow
 def test_both_sweeps_through_basic_and_joblib_then_collect_lists_failed_and_incomplete(
         tmp_path):
     sweep = tmp_path / "sweep"
