@@ -130,6 +130,7 @@ def rewritten(seed: int, convention: str, rewrite: str, fixed: dict | None = Non
     import tmopt.mismatch.realistic as R
 
     sc = recorded_as(R.draw_scenario(seed, "foreign", **(fixed or {})), convention)
+    R._check_integrator(sc, "foreign")  # the rewrites below run the simulator directly
     if rewrite == "none":
         return sc, R.realistic_recording(sc, seed=seed, backend="foreign")[0]
     plan = R._plan(sc, (), (), seed)

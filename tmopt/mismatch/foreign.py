@@ -10,10 +10,10 @@ code:
 
 * integrator: classical Runge-Kutta (RK4), one step per sample, split where a delayed
   command switches inside the step (RK4 is exact for the held force and accurate to
-  ``(sqrt(|k|) h)^5 ~ 1e-15`` for the stiffness term); or (scenario ``integrator``) one
-  Euler step per sample with the acceleration at the step's start, as a hand-written
-  simulator may do -- ``symplectic`` or ``explicit``, the recorded acceleration being the
-  one the step used (a delayed command enters as its step mean; docs/mismatch.md 9.26);
+  ``(sqrt(|k|) h)^5 ~ 1e-15`` for the stiffness term); or (scenario ``integrator``)
+  Euler steps, ``substeps`` per sample, as a hand-written simulator may take them --
+  ``symplectic`` or ``explicit``, the recorded acceleration being the one the sample's
+  first step used (a delayed command enters as its step mean; docs/mismatch.md 9.26);
 * controller: a positional continuous-time PID per axis, ``u = Kp e + Ki int e + Kd de/dt``
   with a first-order derivative filter, discretised by Tustin's rule, conditional
   integration at the +-F_max clip; gains from a loop bandwidth drawn per recording

@@ -121,10 +121,10 @@ class Scenario:
     :func:`draw_scenario`, whose sets stay as read); ``force_stamp`` (foreign only):
     ``applied`` (the force stamped n acts from t_n) or ``previous`` (it acted over
     [t_{n-1}, t_n)).  ``integrator`` (foreign only): ``rk4`` (the default), or a simulator
-    that takes one Euler step per sample with the acceleration at the step's start and
-    records that acceleration -- ``symplectic`` (``v += h a; r += h v``) or ``explicit``
-    (``r += h v; v += h a``), with ``substeps`` Euler steps per sample (the first one's
-    acceleration recorded); never drawn (docs/mismatch.md 9.26).
+    that takes Euler steps with the acceleration at each step's start -- ``symplectic``
+    (``v += h a; r += h v``) or ``explicit`` (``r += h v; v += h a``), ``substeps`` of
+    them per sample, the first one's acceleration recorded; never drawn
+    (docs/mismatch.md 9.26).
     """
 
     duration: float = 1800.0
@@ -705,7 +705,7 @@ def realistic_recording(scenario: Scenario, effects: Sequence[Injection] = (),
     return rec, truth
 
 
-#: ``Scenario.integrator``: the foreign simulator's RK4, or an Euler step per sample.
+#: ``Scenario.integrator``: the foreign simulator's RK4, or Euler steps.
 INTEGRATORS = ("rk4", "symplectic", "explicit")
 
 
