@@ -277,20 +277,23 @@ def bench(args) -> None:
 
 def scan(args) -> None:
     """The convention the shipped tool reads (``prepare``: the path of every diagnosis) on
-    each recording of a benchmark set, made as the benchmark makes it -- whether the Euler
-    conventions take any recording the read sets hold (where they do not, the diagnosis
-    is the one before them: nothing else changed)."""
+    each recording of a benchmark set, made as the benchmark makes it (the SNR scaler of
+    today, the read sets' from 130000 on) -- whether the half-step term takes any
+    recording they hold (where it takes none, the diagnosis is the one before it:
+    nothing else changed)."""
     from mismatch_realistic import _made, cases
 
     from tmopt.mismatch.diagnose import prepare
     from tmopt.mismatch.fit import data_from_recording
+    from tmopt.mismatch.realistic import SCALER_VERSION
 
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     done = set()
     if out.exists():
         done = {(r["backend"], r["seed"]) for r in map(json.loads, out.read_text().splitlines())}
-    todo = [c for b in ("kernel", "foreign") for c in cases(b, args.seed_base, False, 2)
+    todo = [c for b in ("kernel", "foreign")
+            for c in cases(b, args.seed_base, False, SCALER_VERSION)
             if (c["backend"], c["seed"]) not in done]  # fmt: skip
     for i, case in enumerate(todo, 1):
         try:
@@ -350,9 +353,9 @@ def main(argv: list[str] | None = None) -> int:
         bench(args)
         return 0
     if args.cmd == "scan":
-        if args.seed_base % 10000 or not 40000 <= args.seed_base <= 240000:
-            raise SystemExit("--seed-base must be a read benchmark set, 40000-240000 in steps "
-                             f"of 10000; got {args.seed_base}")
+        if args.seed_base % 10000 or not 130000 <= args.seed_base <= 250000:
+            raise SystemExit("--seed-base must be a read benchmark set of today's SNR scaler, "
+                             f"130000-250000 in steps of 10000; got {args.seed_base}")
         scan(args)
         return 0
     if args.cmd == "bench-summary":

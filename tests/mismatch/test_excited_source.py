@@ -10,11 +10,14 @@ noise, so the plain regressor is exogenous: 139.5, named."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 
 import tmopt.mismatch.effects.base as base
 from tmopt.mismatch.diagnose import Settings, diagnose
-from tmopt.mismatch.fit import data_from_recording
+from tmopt.mismatch.fit import data_from_recording, null_basis
+from tmopt.mismatch.realistic import draw_scenario, realistic_recording
 from tmopt.mismatch.report import build_report
 
 from . import benchmark_cases
@@ -34,11 +37,6 @@ def test_a_readout_term_from_an_excited_axis_is_its_own_instrument(monkeypatch):
     """The rule at the column (fast; the studies below show it on 160086): x1's readout
     term driven by the excited x2 is fitted by least squares, its own axis's by the tone
     part (the loop feeds x1's readout noise into acc_x1); the rule off, both by tones."""
-    from dataclasses import replace
-
-    from tmopt.mismatch.fit import null_basis
-    from tmopt.mismatch.realistic import draw_scenario, realistic_recording
-
     sc = replace(draw_scenario(16201, "kernel"), duration=1200.0, sample_rate=2.0, gaps=())
     data = data_from_recording(realistic_recording(sc, seed=16201, backend="kernel")[0])
     ctx = base.Context(data, null_basis(data.geometry))

@@ -696,14 +696,21 @@ def nominal_kinematic_columns(data: Data) -> list[Column]:
 HALFSTEP_NUISANCE = True
 
 
-def _halfstep_column(data: Data) -> Column:
-    """``g (a_n - a_{n-1})`` on every axis's row, with its excitation-tone part as the
-    instrument (the loop puts readout noise into the acceleration; an unexcited axis
-    adds nothing to it)."""
+def halfstep_term(data: Data) -> np.ndarray:
+    """The half-step term per unit ``beta``, ``g (a_n - a_{n-1})`` (4, rows), with the
+    relation's ``g`` (:func:`kinematic_coefficients`)."""
     n = data.kin_index
     g = np.asarray(_kin_coefficients(data)[2], float)[:, None]
-    values = g * (data.acc[:, n] - data.acc[:, n - 1])
-    inst = np.array([tone_instrument(values[a], data.time[n], data.tones(a)) for a in range(4)])
+    return g * (data.acc[:, n] - data.acc[:, n - 1])
+
+
+def _halfstep_column(data: Data) -> Column:
+    """:func:`halfstep_term` on every axis's row, with its excitation-tone part as the
+    instrument (the loop puts readout noise into the acceleration; an unexcited axis
+    adds nothing to it)."""
+    values = halfstep_term(data)
+    time = data.time[data.kin_index]
+    inst = np.array([tone_instrument(values[a], time, data.tones(a)) for a in range(4)])
     return Column("kin_halfstep", values, inst)
 
 
@@ -1041,8 +1048,7 @@ def _halfstep_fit(data: Data, k: np.ndarray, convention: str) -> tuple[list, dic
     if convention == "held":
         step = {s: y0 - kinematic_target(replace(probe, halfstep=s)) for s in (1.0, -1.0)}
     else:
-        g = np.asarray(_kin_coefficients(probe)[2], float)[:, None]
-        term = g * (data.acc[:, n] - data.acc[:, n - 1])
+        term = halfstep_term(probe)
         step = {1.0: term, -1.0: -term}
     rows, info = [], {}
     for a in range(4):
