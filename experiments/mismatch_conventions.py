@@ -47,9 +47,22 @@ foreign cases that way; ``--tool three`` is the tool without the half-step term 
     python experiments/mismatch_conventions.py bench --n 12 --recorded symplectic \
         --out bench_sym_half.jsonl   # and --tool three; --recorded held, symplectic10
 
+A readout may report the mean position over the step that ends at the sample (an
+integrating sensor): ``+rmean`` after any of the above (``held+rmean``) records that way;
+its relation is the explicit half-step term with a curvature of 1/6 (9.27).  ``--tool
+halfstep`` is then stop 50's tool, ``curvature`` (the default) the shipped one:
+
+    python experiments/mismatch_conventions.py survey --seeds 37184-37193 \
+        --conventions held+rmean,mean+rmean --out rmean.jsonl   # and --tool halfstep
+    python experiments/mismatch_conventions.py survey --seeds 37184-37193 \
+        --conventions held --rewrite readout-mean --out trapezoid.jsonl
+    python experiments/mismatch_conventions.py bench --n 12 --recorded held+rmean \
+        --out bench_rmean.jsonl   # and --tool halfstep
+
 ``scan --seed-base 240000`` reads the convention of every recording of a read benchmark
-set with the shipped tool: the half-step term must take none of them (where it takes
-none, the diagnosis is the one before it: nothing else changed).
+set with the shipped tool: the half-step and curvature terms must take none of them
+(where they take none, the diagnosis is the one before them: nothing else changed);
+``--backend kernel`` or ``foreign`` splits it over two processes.
 
 Rows are JSON lines (resumable: a (seed, convention, rewrite, tool) row already written
 is skipped); each row records the library versions of the run.
@@ -69,20 +82,26 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-#: The tool's conventions: (ZOH accelerometer conventions, half-step term estimated).
-#: ``halfstep`` is the shipped tool (stop 50), ``three`` stop 49's, ``two`` the one before.
-TOOLS = {"halfstep": (("held", "mean", "end"), True), "three": (("held", "mean", "end"), False),
-         "two": (("held", "mean"), False)}
+#: The tool's conventions: (ZOH accelerometer conventions, half-step term estimated,
+#: curvature term estimated, an integrating readout read: ``fit.INTEGRATING_READOUT``).
+#: ``curvature`` is the shipped tool (stop 51), ``halfstep`` stop 50's, ``three`` stop
+#: 49's, ``two`` the one before.
+_ZOH = ("held", "mean", "end")
+TOOLS = {"curvature": (_ZOH, True, True, True), "halfstep": (_ZOH, True, False, False),
+         "three": (_ZOH, False, False, False), "two": (("held", "mean"), False, False, False)}
 #: What a recording can be made with: an accelerometer convention of the RK4 simulator, or
 #: Euler steps (which record the acceleration at the sample), ``symplectic`` or
-#: ``explicit`` with an optional number of sub-steps per sample (``symplectic10``).
-RECORDED = ("held", "mean", "end", "symplectic[N]", "explicit[N]")
+#: ``explicit`` with an optional number of sub-steps per sample (``symplectic10``); either
+#: with ``+rmean``: a readout that reports the mean position over the step ending at the
+#: sample (``Scenario.readout_sampling = "mean"``, docs/mismatch.md 9.27).
+RECORDED = ("held", "mean", "end", "symplectic[N]", "explicit[N]", "<any>+rmean")
 
 
 def _set_tool(name: str) -> None:
     import tmopt.mismatch.fit as fit
 
-    fit.ACC_CONVENTIONS, fit.HALFSTEP = TOOLS[name]  # read at call time
+    # read at call time
+    fit.ACC_CONVENTIONS, fit.HALFSTEP, fit.CURVATURE, fit.INTEGRATING_READOUT = TOOLS[name]
 
 
 def _euler(convention: str) -> tuple[str, int] | None:
@@ -96,15 +115,22 @@ def _euler(convention: str) -> tuple[str, int] | None:
 
 
 def _recordable(convention: str) -> bool:
-    return convention in ("held", "mean", "end") or _euler(convention) is not None
+    base, plus, rest = convention.partition("+")
+    if plus and rest != "rmean":
+        return False
+    return base in ("held", "mean", "end") or _euler(base) is not None
 
 
 def recorded_as(scenario, convention: str):
-    """``scenario`` recorded with ``convention`` (see :data:`RECORDED`)."""
-    euler = _euler(convention)
+    """``scenario`` recorded with ``convention`` (see :data:`RECORDED`; ``+rmean``: an
+    integrating readout, the step's mean position)."""
+    base, _, rest = convention.partition("+")
+    if rest == "rmean":
+        scenario = replace(scenario, readout_sampling="mean")
+    euler = _euler(base)
     if euler:
         return replace(scenario, acc_convention="held", integrator=euler[0], substeps=euler[1])
-    return replace(scenario, acc_convention=convention)
+    return replace(scenario, acc_convention=base)
 
 
 def _seeds(text: str) -> list[int]:
@@ -164,6 +190,7 @@ def diagnose_clean(seed: int, convention: str, rewrite: str = "none",
     return {"seed": seed, "convention": convention, "rewrite": rewrite, "fs": sc.sample_rate,
             "stiffness": list(sc.stiffness), "status": rep["status"],
             "chosen": used.get("acc_convention"), "halfstep": used.get("kinematic_halfstep"),
+            "curvature": used.get("kinematic_curvature", 0.0),
             "by": (used.get("acc_convention_evidence") or {}).get("by", "undecided"),
             "names": names, "unexplained": unexplained,
             "alarm": bool(names or unexplained or rep["status"] != "diagnosed"),
@@ -231,17 +258,20 @@ def survey(args) -> None:
 def summary(paths: list[str]) -> str:
     rows = [json.loads(line) for p in paths for line in Path(p).read_text().splitlines()]
     lines = ["| tool | recorded convention | rewrite | recordings | alarms | "
-             "chosen held / mean / end / with a half-step term [min, max] |",
-             "|---|---|---|---|---|---|"]  # fmt: skip
+             "chosen held / mean / end / with a half-step term [min, max] | "
+             "with a curvature term [min, max] |",
+             "|---|---|---|---|---|---|---|"]  # fmt: skip
     keys = sorted({(r["tool"], r["convention"], r.get("rewrite", "none")) for r in rows})
     for tool, conv, rw in keys:
         sel = [r for r in rows if (r["tool"], r["convention"], r.get("rewrite", "none"))
                == (tool, conv, rw)]  # fmt: skip
         chosen = Counter(r["chosen"] if not r.get("halfstep") else "halfstep" for r in sel)
         steps = sorted(round(r["halfstep"], 3) for r in sel if r.get("halfstep"))
+        curv = sorted(round(r["curvature"], 3) for r in sel if r.get("curvature"))
         lines.append(f"| {tool} | {conv} | {rw} | {len(sel)} | {sum(r['alarm'] for r in sel)} "
                      f"| {' / '.join(str(chosen[c]) for c in ('held', 'mean', 'end'))} / "
-                     f"{chosen['halfstep']} {steps[:1] + steps[-1:] if steps else ''} |")
+                     f"{chosen['halfstep']} {steps[:1] + steps[-1:] if steps else ''} | "
+                     f"{len(curv)} {curv[:1] + curv[-1:] if curv else ''} |")
     alarms = [r for r in rows if r["alarm"]]
     lines += ["", "Alarms:"] + [f"- {r['tool']} {r['convention']} {r.get('rewrite', 'none')} "
                                 f"{r['seed']} (fs {r['fs']}): {r['names'] + r['unexplained']}"
@@ -292,7 +322,8 @@ def scan(args) -> None:
     done = set()
     if out.exists():
         done = {(r["backend"], r["seed"]) for r in map(json.loads, out.read_text().splitlines())}
-    todo = [c for b in ("kernel", "foreign")
+    backends = ("kernel", "foreign") if args.backend == "both" else (args.backend,)
+    todo = [c for b in backends
             for c in cases(b, args.seed_base, False, SCALER_VERSION)
             if (c["backend"], c["seed"]) not in done]  # fmt: skip
     for i, case in enumerate(todo, 1):
@@ -310,12 +341,15 @@ def scan(args) -> None:
         row = {"backend": case["backend"], "seed": case["seed"],
                "recorded": truth["scenario"].get("acc_convention"),
                "chosen": data.acc_convention, "halfstep": data.halfstep,
-               "evidence": ev.get("combined")}  # fmt: skip
+               "evidence": ev.get("combined"), "curvature": data.curvature,
+               "curvature_evidence": data.usage.get("acc_convention_evidence", {}).get(
+                   "curvature_evidence", {}).get("combined")}  # fmt: skip
         with out.open("a") as fh:
             fh.write(json.dumps(row) + "\n")
         print(f"[{i}/{len(todo)}] {case['backend']} {case['seed']}: recorded "
               f"{row['recorded']}, chosen {row['chosen']}, half-step {row['halfstep']} "
-              f"({row['evidence']})", flush=True)
+              f"({row['evidence']}), curvature {row['curvature']} "
+              f"({row['curvature_evidence']})", flush=True)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -324,7 +358,7 @@ def main(argv: list[str] | None = None) -> int:
     sv = sub.add_parser("survey")
     sv.add_argument("--seeds", required=True, help="calibration seeds a-b (< 40000)")
     sv.add_argument("--conventions", default="held,mean,end")
-    sv.add_argument("--tool", choices=sorted(TOOLS), default="halfstep")
+    sv.add_argument("--tool", choices=sorted(TOOLS), default="curvature")
     sv.add_argument("--rewrite", default="none", help=f"one of {REWRITES} (D in (0, 1))")
     sv.add_argument("--duration", type=float, help="fixed record length [s], 600-7200")
     sv.add_argument("--sample-rate", type=float, help="fixed rate [Hz], 1-20")
@@ -335,11 +369,12 @@ def main(argv: list[str] | None = None) -> int:
     bn = sub.add_parser("bench")
     bn.add_argument("--n", type=int, default=40, help="cases, 1-150")
     bn.add_argument("--seed-base", type=int, default=900000)
-    bn.add_argument("--tool", choices=sorted(TOOLS), default="halfstep")
+    bn.add_argument("--tool", choices=sorted(TOOLS), default="curvature")
     bn.add_argument("--recorded", default="end", help=f"one of {RECORDED}")
     bn.add_argument("--out", required=True)
     sc = sub.add_parser("scan")
     sc.add_argument("--seed-base", type=int, required=True, help="a read set, e.g. 240000")
+    sc.add_argument("--backend", choices=["kernel", "foreign", "both"], default="both")
     sc.add_argument("--out", required=True)
     bs = sub.add_parser("bench-summary")
     bs.add_argument("rows")

@@ -200,8 +200,11 @@ def test_kinematic_coefficients_reduce_to_the_k0_relation_and_match_closed_forms
     cp, cm, g = kinematic_coefficients(k, h, "held", 0.25)  # sub-steps: a weighted mean
     ch, mh, gh = kinematic_coefficients(k, h, "held")
     assert np.allclose(cp, 0.75 * ch + 0.25) and np.allclose(g, 0.75 * gh + 0.25 * h * h / 2)
-    with pytest.raises(ValueError, match="half-step term goes with the 'held'"):
-        kinematic_coefficients(k, h, "mean", 0.5)
+    for conv in ("mean", "end"):  # with a half-step term the relation is held's blend,
+        # whichever convention places Eq. 10's stiffness term (an integrating readout, 9.27)
+        got = kinematic_coefficients(k, h, conv, -1.0)
+        assert all(np.array_equal(a, b) for a, b in zip(got, kinematic_coefficients(k, h, "held",
+                                                                               -1.0)))
 
 
 def test_injected_catalogue_effects_reach_both_simulators():

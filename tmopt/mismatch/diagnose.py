@@ -45,6 +45,7 @@ from tmopt.mismatch.fit import (
     align_force_timing,
     align_kinematics,
     choose_acc_convention,
+    choose_curvature,
     drop_samples,
     equation_target,
     kinematic_target,
@@ -1438,9 +1439,11 @@ def prepare(data: Data, stiffness: np.ndarray | None = None,
     data.stiffness = k
     conv, info = choose_acc_convention(data, k, nuisance)
     data.acc_convention, data.halfstep = conv, float(info.get("halfstep", 0.0))
+    data.curvature, info["curvature_evidence"] = choose_curvature(data)
     data.__dict__.pop("_x_eq", None)
     data.usage["acc_convention"] = conv
     data.usage["kinematic_halfstep"] = data.halfstep
+    data.usage["kinematic_curvature"] = data.curvature
     data.usage["acc_convention_evidence"] = info
     if info.get("from") != "attribute":
         how = ("chosen from the data" if info.get("decided") else
@@ -1451,9 +1454,17 @@ def prepare(data: Data, stiffness: np.ndarray | None = None,
                           f"acceleration half a step away from a ZOH step (half-step term "
                           f"{data.halfstep:+.4g}: +1 one symplectic Euler or Verlet step per "
                           f"sample, -1 one explicit Euler step, +-1/N N sub-steps; chosen "
-                          f"from the data) -- a simulator's integrator, or the readout and "
+                          f"from the data) -- a simulator's integrator, a readout that "
+                          f"reports the step's mean position (-1), or the readout and "
                           f"accelerometer clocks apart by {-data.halfstep / 2:+.3g} sample on "
                           f"every axis")  # fmt: skip
+    if data.curvature:
+        data.notes.append(f"kinematic check: the readout's second difference weighs the "
+                          f"accelerations over three steps (curvature term "
+                          f"{data.curvature:.4g}: 1/6 a readout that reports the mean "
+                          f"position over the step, 1/4 a trapezoid of two samples, 1/12 a "
+                          f"smooth acceleration sampled at the instants; chosen from the "
+                          f"data)")  # fmt: skip
     return data, basis
 
 

@@ -55,7 +55,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy import signal
 
-from tmopt.mismatch.noise_model import Layout
+from tmopt.mismatch.noise_model import Layout, taper
 from tmopt.mismatch.true_position import readout_noise
 from tmopt.physics.geometry import Geometry
 from tmopt.physics.recording import AXES
@@ -121,6 +121,8 @@ class Data:
     acc_convention: str = "held"
     # the kinematic relation's half-step coefficient (Euler steps; 0: the ZOH relations)
     halfstep: float = 0.0
+    # its curvature coefficient (an integrating readout, a smooth simulator; 0: none)
+    curvature: float = 0.0
     stiffness: np.ndarray | None = None  # k per axis for the exact kinematics (None: 0)
     # the stiffness regressors on the true position: the readout noise taken out
     # (:mod:`tmopt.mismatch.true_position`); False: on the readout as recorded
@@ -152,7 +154,7 @@ class Data:
         (:func:`tmopt.mismatch.true_position.readout_noise`; the readout itself when
         ``true_position`` is False): ``k n_r`` is correlated with the force the loop makes
         from ``n_r`` (docs/mismatch.md 9.19)."""
-        key = (self.acc_convention, self.halfstep, self.true_position,
+        key = (self.acc_convention, self.halfstep, self.curvature, self.true_position,
                None if self.stiffness is None else np.asarray(self.stiffness, float).tobytes())
         cache = self.__dict__.setdefault("_x_eq", {})
         if key not in cache:
@@ -302,6 +304,10 @@ ACC_CONVENTIONS = ("held", "mean", "end")
 HALFSTEP_ATTRIBUTES = {"symplectic": 1.0, "explicit": -1.0}
 #: Estimate a half-step term from the data (:func:`_halfstep`); False: stop 49's tool.
 HALFSTEP = True
+#: Read an integrating readout (9.27): the half-step estimate snapped to +-1 within
+#: HALFSTEP_SLACK too, and -1 kept where Eq. 10 places the stiffness term away from
+#: ``held``; False: stop 50's rule (snapped within 3 standard errors, kept with ``held``).
+INTEGRATING_READOUT = True
 
 
 def data_from_recording(rec) -> Data:
@@ -504,7 +510,7 @@ def kinematic_coefficients(k: np.ndarray, h: float, convention: str, halfstep: f
     in ``z = k h^2`` (|z| < 1e-4 here, so 6 terms are exact to double precision and k < 0
     needs no complex square root).
 
-    ``halfstep`` (``beta``, ``held`` only; the relation's acceleration term is then ``g
+    ``halfstep`` (``beta``; the relation's acceleration term is then ``g
     ((a_n + a_{n-1}) + beta (a_n - a_{n-1}))``, :func:`acc_sum`): Euler steps with the
     acceleration at the sample.  One step per sample (``beta`` = +-1) is exact with ``(1,
     2, h^2/2)`` at any k (the recorded ``a_n`` holds ``k r_n``); N sub-steps give ``beta =
@@ -513,8 +519,6 @@ def kinematic_coefficients(k: np.ndarray, h: float, convention: str, halfstep: f
     noise-free sub-stepped recordings at |k| = 2e-6 (either form alone 1e-6;
     docs/mismatch.md 9.26).
     """
-    if halfstep and convention != "held":
-        raise ValueError(f"a half-step term goes with the 'held' convention; got {convention!r}")
     if halfstep:
         w = min(abs(float(halfstep)), 1.0)
         c_prev, c_mid, g = kinematic_coefficients(k, h, "held")
@@ -619,12 +623,43 @@ def _kin_coefficients(data: Data):
 def acc_sum(data: Data) -> np.ndarray:
     """The accelerations (4, rows) that ``g`` multiplies in the relation: ``a_n + a_{n-1}``,
     with a half-step term ``beta (a_n - a_{n-1})`` beside it (``Data.halfstep``: Euler
-    steps); one row per ``Data.kin_index`` sample."""
+    steps) and a curvature term ``2 lambda`` times :func:`acc_curvature`
+    (``Data.curvature``: an integrating readout); one row per ``Data.kin_index`` sample."""
     n = data.kin_index
     if data.halfstep:
         beta = float(data.halfstep)
-        return (1 + beta) * data.acc[:, n] + (1 - beta) * data.acc[:, n - 1]
-    return data.acc[:, n] + data.acc[:, n - 1]
+        out = (1 + beta) * data.acc[:, n] + (1 - beta) * data.acc[:, n - 1]
+    else:
+        out = data.acc[:, n] + data.acc[:, n - 1]
+    if data.curvature:
+        out = out + 2.0 * float(data.curvature) * acc_curvature(data)
+    return out
+
+
+def acc_curvature(data: Data) -> np.ndarray:
+    """The accelerations' second difference (4, rows) where the relation's centre sits:
+    ``c_n = a_{n+1} - 2 a_n + a_{n-1}`` and ``c_{n-1}``, weighted ``(1 + beta)/2`` and
+    ``(1 - beta)/2`` by the half-step term (``beta`` = +1 puts the centre at sample n, -1
+    at n - 1, 0 between).  Over a step whose readout is the mean position of the step
+    that ends at t_n the relation is ``x_{n+1} - 2 x_n + x_{n-1} = h^2 (a_{n-2} + 4
+    a_{n-1} + a_n)/6`` at k = 0: ``beta = -1`` and ``lambda = 1/6`` with ``c_{n-1}``; a
+    trapezoid of the samples ``(x_n + x_{n+1})/2`` gives ``beta = +1``, ``lambda = 1/4``
+    with ``c_n``; a smooth acceleration sampled at the instants (Numerov) ``+1``, ``1/12``
+    (docs/mismatch.md 9.27).  Placed elsewhere the term is right at the tones to
+    ``(w h)^3`` but not across a start-up transient.  At a segment's first row, whose
+    ``a_{n-2}`` lies across the gap, ``c_n`` stands in for ``c_{n-1}``."""
+    n = data.kin_index
+    a = data.acc
+    c_n = a[:, n + 1] - 2.0 * a[:, n] + a[:, n - 1]
+    w = 0.5 * (1.0 + float(data.halfstep))
+    if w >= 1.0:
+        return c_n
+    c_prev = np.array(c_n)
+    inside = n - 2 >= np.repeat([s for s, _ in data.segments],
+                                [max(b - s - 2, 0) for s, b in data.segments])  # fmt: skip
+    m = n[inside]
+    c_prev[:, inside] = a[:, m] - 2.0 * a[:, m - 1] + a[:, m - 2]
+    return w * c_n + (1.0 - w) * c_prev
 
 
 def kinematic_target(data: Data) -> np.ndarray:
@@ -689,6 +724,8 @@ def nominal_kinematic_columns(data: Data) -> list[Column]:
             cols.append(Column(f"kin_offset_{AXES[ax]}" + (f"@{s + 1}" if s else ""), v))
     if data.halfstep and HALFSTEP_NUISANCE:
         cols.append(_halfstep_column(data))
+    if data.curvature and HALFSTEP_NUISANCE:
+        cols.append(_tone_column("kin_curvature", data, curvature_term(data)))
     return cols
 
 
@@ -704,14 +741,25 @@ def halfstep_term(data: Data) -> np.ndarray:
     return g * (data.acc[:, n] - data.acc[:, n - 1])
 
 
+def curvature_term(data: Data) -> np.ndarray:
+    """The curvature term per unit ``lambda``, ``2 g`` times :func:`acc_curvature` (4,
+    rows): ``~lambda h^2`` times the accelerations' second difference."""
+    g = np.asarray(_kin_coefficients(data)[2], float)[:, None]
+    return 2.0 * g * acc_curvature(data)
+
+
 def _halfstep_column(data: Data) -> Column:
-    """:func:`halfstep_term` on every axis's row, with its excitation-tone part as the
+    """:func:`halfstep_term` on every axis's row (:func:`_tone_column`)."""
+    return _tone_column("kin_halfstep", data, halfstep_term(data))
+
+
+def _tone_column(name: str, data: Data, values: np.ndarray) -> Column:
+    """A kinematic column on every axis's row with its excitation-tone part as the
     instrument (the loop puts readout noise into the acceleration; an unexcited axis
     adds nothing to it)."""
-    values = halfstep_term(data)
     time = data.time[data.kin_index]
     inst = np.array([tone_instrument(values[a], time, data.tones(a)) for a in range(4)])
-    return Column("kin_halfstep", values, inst)
+    return Column(name, values, inst)
 
 
 def tone_instrument(series: np.ndarray, time: np.ndarray, tones: list[float]) -> np.ndarray:
@@ -913,12 +961,21 @@ def choose_acc_convention(data: Data, k: np.ndarray,
     basis = null_basis(data.geometry)
     info: dict = {"halfstep": 0.0}
     beta, info["halfstep_evidence"] = _halfstep(data, k)
-    if beta:  # Euler steps record the acceleration at the sample: Eq. 10 must allow held
+    if beta:  # Euler steps record the acceleration at the sample: Eq. 10 then allows held
         rss = _equation_rss(data, basis, ACC_CONVENTIONS, DELAY_NUISANCE, nuisance)
         info["equation_lr_held_vs_best"] = _lr(data, rss["held"], min(rss.values()))
-        if info["equation_lr_held_vs_best"] < DECIDE_LR:
+        held = info["equation_lr_held_vs_best"] < DECIDE_LR
+        # an integrating readout (the step's mean, ~r(t_n - h/2)) is the explicit term
+        # exactly, and its readouts sit half a step from the accelerometer's k r term:
+        # Eq. 10's stiffness term then reads them where it fits best (docs/mismatch.md
+        # 9.27).  Other terms are Euler sub-steps, whose accelerometer is held
+        integrating = beta == -1.0 and INTEGRATING_READOUT
+        if held or integrating:
             info.update(halfstep=beta, decided=True, by="kinematic group (half-step term)")
-            return "held", info
+            if held:
+                return "held", info
+            info["by"] += "; stiffness term placed by the equation group"
+            return min(rss, key=rss.get), info
     left, fittest = list(ACC_CONVENTIONS), "held"
     passes = [(True, left)] if DELAY_NUISANCE else []
     for delay, among in passes + [(False, ["held", "mean"])]:
@@ -1009,7 +1066,8 @@ def _halfstep(data: Data, k: np.ndarray) -> tuple[float, dict]:
     ``~k/w^2`` (1e-2 for a 500 s tone at k 2e-6, more for slower ones), so a term is
     taken only if it is also seen against ``mean`` and ``end``: a recording that one of
     the ZOH relations fits has none.  Returns ``beta`` (snapped to +-1 within 3 standard
-    errors) or 0, and the evidence: per axis and ``combined`` under ``held``, and the
+    errors and :data:`HALFSTEP_SLACK`) or 0, and the evidence: per axis and ``combined``
+    under ``held``, and the
     ``combined`` of the others (``vs_mean``, ``vs_end``).
     """
     info: dict = {}
@@ -1018,11 +1076,8 @@ def _halfstep(data: Data, k: np.ndarray) -> tuple[float, dict]:
     rows, info = _halfstep_fit(data, k, "held")
     if not rows:
         return 0.0, info
-    b, s = np.array(rows).T
     beta, se = info["combined"]["beta"], info["combined"]["se"]
-    seen = int(np.sum(np.abs(b) > HALFSTEP_AXIS_Z * s))
-    agree = bool(np.all(np.abs(b - beta) < 4.0 * s + HALFSTEP_SLACK * abs(beta)))
-    if abs(beta) < HALFSTEP_Z * se or seen < 2 or not agree or abs(beta) > 1.0 + 3.0 * se:
+    if not _term_taken(rows, beta, se) or abs(beta) > 1.0 + 3.0 * se:
         return 0.0, info
     for conv in ACC_CONVENTIONS:
         if conv != "held":
@@ -1030,7 +1085,12 @@ def _halfstep(data: Data, k: np.ndarray) -> tuple[float, dict]:
             info[f"vs_{conv}"] = other
             if abs(other["beta"]) < HALFSTEP_Z * other["se"]:
                 return 0.0, info
-    return (math.copysign(1.0, beta) if abs(abs(beta) - 1.0) < 3.0 * se else beta), info
+    # snapped within 3 standard errors and HALFSTEP_SLACK: an integrating readout's
+    # curvature moves the estimate by ~lambda (w h)^2 (-0.9986 at 2 Hz; 9.27), and N >= 2
+    # sub-steps give |beta| <= 1/2
+    slack = HALFSTEP_SLACK if INTEGRATING_READOUT else 0.0
+    near = abs(abs(beta) - 1.0) < 3.0 * se + slack
+    return (math.copysign(1.0, beta) if near else beta), info
 
 
 def _halfstep_fit(data: Data, k: np.ndarray, convention: str) -> tuple[list, dict]:
@@ -1066,14 +1126,126 @@ def _halfstep_fit(data: Data, k: np.ndarray, convention: str) -> tuple[list, dic
         se = sideband_se(z, y0[a] - size * reg, data.time[n]) / abs(zz)
         rows.append((sign * size, se))
         info[AXES[a]] = {"beta": sign * size, "se": se}
-    if rows:
-        b, s = np.array(rows).T
-        w = 1.0 / np.maximum(s, 1e-300) ** 2
-        info["combined"] = {"beta": float(np.sum(w * b) / np.sum(w)),
-                            "se": float(1.0 / math.sqrt(np.sum(w)))}  # fmt: skip
-    else:
-        info["combined"] = {"beta": 0.0, "se": math.inf}
+    info["combined"] = _combined(rows, "beta")
     return rows, info
+
+
+#: Estimate a curvature term from the data (:func:`choose_curvature`); False: stop 50's tool.
+CURVATURE = True
+#: Largest curvature taken: the trapezoid of two samples has 1/4, a step's mean 1/6, a
+#: smooth acceleration sampled at the instants 1/12; beyond 1/2 no averaging makes it.
+CURVATURE_MAX = 0.5
+
+
+def choose_curvature(data: Data) -> tuple[float, dict]:
+    """The kinematic relation's curvature coefficient ``lambda`` (0: none), with
+    ``data``'s convention and half-step term (:func:`acc_curvature`; docs/mismatch.md 9.27).
+
+    ``lambda`` is estimated per excited axis by instrumental variables (the tones), its
+    standard error from the residual beside them (:func:`sideband_se`), and taken by the
+    half-step term's rule (:data:`HALFSTEP_Z`: two axes see it, every excited axis
+    agrees, the combined estimate is far from 0) when ``0 < lambda <= CURVATURE_MAX``.
+    At a tone of angular frequency w the term is a gain ``-lambda (w h)^2`` of the
+    relation, so a readout scale ``e`` on one axis looks like ``lambda = -e/(w h)^2``
+    there: one axis never decides, and a scale shared by the axes reads a different
+    ``lambda`` on each unless their tones sit at one frequency (then it is taken for a
+    curvature: the limit of this test).  Returns ``lambda`` or 0, and the evidence."""
+    if not CURVATURE:
+        return 0.0, {}
+    probe = replace(data, curvature=0.0, notes=[])
+    probe.__dict__.pop("_x_eq", None)
+    y0 = kinematic_target(probe)
+    reg = curvature_term(probe)
+    rows, info = _iv_rows(data, y0, reg, "lambda", _curvature_instrument(probe))
+    if not rows:
+        return 0.0, info
+    lam, se = info["combined"]["lambda"], info["combined"]["se"]
+    if not _term_taken(rows, lam, se) or lam <= 0 or lam > CURVATURE_MAX + 3.0 * se:
+        return 0.0, info
+    return lam, info
+
+
+def _curvature_instrument(data: Data) -> np.ndarray:
+    """The curvature term's instrument (4, rows): each tone of the acceleration passed
+    through the term's filter.  The term's own tone part is a poorer one: the second
+    difference lifts the loop's broadband force (readout noise fed back) by ``16/(w h)^2``
+    against the tones, and what of it leaks into a tone fit is noise, correlated with the
+    readout noise in the target -- on clean integrating-readout recordings at 8-10 Hz its
+    standard errors were 2-5 times these, and two estimates sat 2 of them above 1/6
+    (docs/mismatch.md 9.27)."""
+    n, h = data.kin_index, data.dt
+    g = np.asarray(_kin_coefficients(data)[2], float)
+    w = 0.5 * (1.0 + float(data.halfstep))  # the weight of c_n (:func:`acc_curvature`)
+
+    def response(om: float) -> complex:
+        return (2 * math.cos(om * h) - 2) * (w + (1 - w) * complex(math.cos(om * h),
+                                                                    -math.sin(om * h)))
+
+    time = data.time[n]
+    return np.array([2 * g[a] * tone_response(data.acc[a, n], time, data.tones(a), response)
+                     for a in range(4)])  # fmt: skip
+
+
+def tone_response(series: np.ndarray, time: np.ndarray, tones: list[float],
+                  response) -> np.ndarray:  # fmt: skip
+    """:func:`tone_part` of ``series`` with each tone passed through a linear filter of
+    complex frequency response ``response(w)`` (``sum_j h_j e^{-i w j dt}`` for ``y_n =
+    sum_j h_j x_{n-j}``): amplitude times ``|H|``, phase advanced by ``arg H``."""
+    if not tones:
+        return np.zeros_like(series)
+    t = time - time[0]
+    w = [2 * math.pi * f0 for f0 in tones]
+    basis = np.column_stack([f(wk * t) for wk in w for f in (np.sin, np.cos)])
+    coef, *_ = np.linalg.lstsq(basis, series, rcond=None)
+    out = np.zeros_like(series)
+    for k, wk in enumerate(w):
+        hk = response(wk)
+        amp, ph = abs(hk), math.atan2(hk.imag, hk.real)
+        out += amp * (coef[2 * k] * np.sin(wk * t + ph) + coef[2 * k + 1] * np.cos(wk * t + ph))
+    return out
+
+
+def _iv_rows(data: Data, y0: np.ndarray, reg: np.ndarray, name: str,
+             instrument: np.ndarray) -> tuple[list, dict]:  # fmt: skip
+    """Per excited axis the coefficient of ``reg`` in ``y0`` (both (4, rows)) by
+    instrumental variables (``instrument``, the tones' part, Hann-tapered per segment as
+    the kinematic group is) with its sideband standard error; and their inverse-variance
+    ``combined``.  The taper keeps a segment's first rows out: a simulator's start-up
+    (its first readout a point, then step means) left one row 1e3 times the others that
+    took the estimate to 0."""
+    n = data.kin_index
+    win = np.concatenate([taper(b - a, 1.0) for a, b in data.kin_layout.bounds])
+    rows, info = [], {}
+    for a in range(4):
+        tones = data.tones(a)
+        if not tones:
+            continue
+        z = instrument[a] * win
+        zz = float(z @ reg[a])
+        if zz == 0:
+            continue
+        c = float(z @ y0[a]) / zz
+        se = sideband_se(z, y0[a] - c * reg[a], data.time[n]) / abs(zz)
+        rows.append((c, se))
+        info[AXES[a]] = {name: c, "se": se}
+    info["combined"] = _combined(rows, name)
+    return rows, info
+
+
+def _combined(rows: list, name: str) -> dict:
+    if not rows:
+        return {name: 0.0, "se": math.inf}
+    b, s = np.array(rows).T
+    w = 1.0 / np.maximum(s, 1e-300) ** 2
+    return {name: float(np.sum(w * b) / np.sum(w)), "se": float(1.0 / math.sqrt(np.sum(w)))}
+
+
+def _term_taken(rows: list, value: float, se: float) -> bool:
+    """The rule of a relation term estimated per axis (:data:`HALFSTEP_Z`)."""
+    b, s = np.array(rows).T
+    seen = int(np.sum(np.abs(b) > HALFSTEP_AXIS_Z * s))
+    agree = bool(np.all(np.abs(b - value) < 4.0 * s + HALFSTEP_SLACK * abs(value)))
+    return abs(value) >= HALFSTEP_Z * se and seen >= 2 and agree
 
 
 #: Sideband offsets (in units of 1/T) of :func:`sideband_se`: clear of a tone's main lobe.

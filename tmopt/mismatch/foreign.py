@@ -26,6 +26,8 @@ code:
 * accelerometer: by default the *mean* acceleration over ``[t_n, t_{n+1})`` (an
   integrating sensor; scenario ``acc_convention = "held"`` gives the kernel's convention,
   ``"end"`` the stiffness term read at the step's end, ``k r(t_{n+1})``);
+* readout: the position at t_n, or (scenario ``readout_sampling = "mean"``) its mean over
+  the step that ends at t_n (an integrating sensor; the controller sees the same);
 * force channel: the command applied from t_n (``applied``) or the one that acted over
   ``[t_{n-1}, t_n)`` (``previous``, a timestamp convention of another simulator);
 * geometry: its own frame rotations from the angles.
@@ -278,11 +280,12 @@ def run_foreign(plan) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
         for a in range(4):
             lag[a] = int(math.floor(delay[a] / h + 1e-12))
             split[a] = delay[a] - lag[a] * h  # the older command acts for this long
+    seen = r  # what the readout reads: the position at t_n, or the last step's mean
     for i in range(n):
         tt = t_axis[i]
         meas = []
         for a in range(4):
-            pos = r[a] if readout is None else sum(readout[a, c] * r[c] for c in range(4))
+            pos = seen[a] if readout is None else sum(readout[a, c] * seen[c] for c in range(4))
             meas.append(pos + noise["readout"][a, i])
         cmd = pid.step([refs[a, i] - meas[a] for a in range(4)])
         cmd_hist[:, i] = cmd
@@ -296,7 +299,7 @@ def run_foreign(plan) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
         # instant t_n alone would make any delay > 0 a whole-sample jump)
         over_step = [(split[a] * early[a] + (h - split[a]) * late[a]) / h for a in range(4)]
         acc_held = accel(tt, i, r, v, over_step)
-        v0 = list(v)
+        v0, r0 = list(v), list(r)
         cut = max(split) if any(s > 0 for s in split) else 0.0
         if sc.integrator != "rk4":
             m = sc.substeps
@@ -327,6 +330,10 @@ def run_foreign(plan) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
                 rec[f"acc_{name}"][i] = (v[a] - v0[a]) / h + noise["acc"][a, i]
             rec[f"force_{name}"][i] = cmd[a] if sc.force_stamp == "applied" else (
                 cmd_hist[a, i - 1] if i > 0 else 0.0)
+        if sc.readout_sampling == "mean":  # the next sample reads this step's mean
+            seen = _step_mean(r0, r, v0, v, h)
+        else:
+            seen = r
         if not all(abs(x) < GAP_BOUND for x in r):
             raise GenerationError(f"foreign simulation: a test mass left the gap at t = {tt:.1f} "
                                   "s (the loop diverged)")  # fmt: skip
@@ -337,6 +344,13 @@ def run_foreign(plan) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
             rec[f"sc_omega_{c}"] = omega[j].copy()
             rec[f"sc_omega_dot_{c}"] = omega_dot[j].copy()
     return rec, {"time": t_axis.copy(), "r": true_r}
+
+
+def _step_mean(r0: list, r1: list, v0: list, v1: list, h: float) -> list:
+    """Mean position over a step from its ends: ``(r0 + r1)/2 - h (v1 - v0)/12`` (the
+    trapezoid rule with its end correction, Euler-Maclaurin; exact for a cubic, so to
+    ``h^4 k a/720`` under a held force) -- an integrating readout."""
+    return [0.5 * (a + b) - h * (d - c) / 12.0 for a, b, c, d in zip(r0, r1, v0, v1)]
 
 
 def _euler_step(kind: str, r: list, v: list, acc: list, h: float) -> None:

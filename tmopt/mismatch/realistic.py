@@ -124,7 +124,9 @@ class Scenario:
     that takes Euler steps with the acceleration at each step's start -- ``symplectic``
     (``v += h a; r += h v``) or ``explicit`` (``r += h v; v += h a``), ``substeps`` of
     them per sample, the first one's acceleration recorded; never drawn
-    (docs/mismatch.md 9.26).
+    (docs/mismatch.md 9.26).  ``readout_sampling`` (foreign only): ``point`` (the position
+    at t_n, the default) or ``mean`` (an integrating readout: the mean position over the
+    step that ends at t_n, which the controller also sees; never drawn, 9.27).
     """
 
     duration: float = 1800.0
@@ -142,6 +144,7 @@ class Scenario:
     force_stamp: str = "applied"
     integrator: str = "rk4"  # INTEGRATORS
     substeps: int = 1  # Euler steps per sample
+    readout_sampling: str = "point"  # READOUT_SAMPLINGS
 
     @property
     def n(self) -> int:
@@ -169,6 +172,8 @@ class Scenario:
             del d["integrator"]
         if self.substeps == 1:
             del d["substeps"]
+        if self.readout_sampling == "point":
+            del d["readout_sampling"]
         return d
 
 
@@ -707,6 +712,8 @@ def realistic_recording(scenario: Scenario, effects: Sequence[Injection] = (),
 
 #: ``Scenario.integrator``: the foreign simulator's RK4, or Euler steps.
 INTEGRATORS = ("rk4", "symplectic", "explicit")
+#: ``Scenario.readout_sampling``: the position at the sample, or its mean over the step.
+READOUT_SAMPLINGS = ("point", "mean")
 
 
 def _check_integrator(scenario: Scenario, backend: str) -> None:
@@ -715,6 +722,12 @@ def _check_integrator(scenario: Scenario, backend: str) -> None:
                          f"{scenario.acc_convention!r}")
     if scenario.integrator not in INTEGRATORS:
         raise ValueError(f"integrator must be one of {INTEGRATORS}; got {scenario.integrator!r}")
+    if scenario.readout_sampling not in READOUT_SAMPLINGS:
+        raise ValueError(f"readout_sampling must be one of {READOUT_SAMPLINGS}; got "
+                         f"{scenario.readout_sampling!r}")
+    if scenario.readout_sampling != "point" and backend != "foreign":
+        raise ValueError(f"readout_sampling={scenario.readout_sampling!r} needs backend "
+                         f"'foreign'; got backend {backend!r}")
     if isinstance(scenario.substeps, bool) or not isinstance(scenario.substeps, int) \
             or not 1 <= scenario.substeps <= 100:  # fmt: skip
         raise ValueError(f"substeps must be an integer in [1, 100]; got {scenario.substeps!r}")

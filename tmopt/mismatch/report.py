@@ -453,7 +453,9 @@ def _data_line(rep: dict) -> str:
             f"({100 * u.get('fraction_used', 1.0):.1f} %) in {u.get('segments_used')} gap-free "
             f"segment(s); accelerometer convention {u.get('acc_convention', 'held')}"
             + (f", half-step term {u['kinematic_halfstep']:+.4g} (Euler steps)"
-               if u.get("kinematic_halfstep") else "") + ".")  # fmt: skip
+               if u.get("kinematic_halfstep") else "")
+            + (f", curvature term {u['kinematic_curvature']:.4g} (an integrating readout)"
+               if u.get("kinematic_curvature") else "") + ".")  # fmt: skip
 
 
 def _markdown(rep: dict, figs: list[str]) -> str:
