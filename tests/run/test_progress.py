@@ -6,6 +6,7 @@ import io
 import logging
 
 import numpy as np
+import pytest
 
 from tmopt.evaluation.archive import ArchiveData
 from tmopt.run import progress
@@ -29,6 +30,21 @@ def _handlers():
     return console, to_file, console_text, file_text
 
 
+@pytest.fixture
+def progress_logger(monkeypatch):
+    """``tmopt.progress`` at INFO with the test's handlers.  ``setLevel``, not the
+    attribute: it clears the loggers' ``isEnabledFor`` caches, and an earlier test in the
+    same process (a run at the root's WARNING) may have cached INFO as off -- under
+    ``make test``'s two processes the lines then went nowhere."""
+    logger = logging.getLogger("tmopt.progress")
+    old = logger.level
+    console, to_file, console_text, file_text = _handlers()
+    monkeypatch.setattr(logger, "handlers", [console, to_file])
+    logger.setLevel(logging.INFO)
+    yield console, console_text, file_text
+    logger.setLevel(old)
+
+
 def test_line_holds_budget_share_igd_best_and_stage():
     reporter = ProgressReporter(10, ["f1", "f2"], enabled=False,
                                 front=np.array([[0.0, 1.0], [1.0, 0.0]]))
@@ -37,11 +53,8 @@ def test_line_holds_budget_share_igd_best_and_stage():
                     "| stage=1")
 
 
-def test_no_terminal_no_bar_and_the_line_goes_to_every_handler(monkeypatch):
-    console, to_file, console_text, file_text = _handlers()
-    logger = logging.getLogger("tmopt.progress")
-    monkeypatch.setattr(logger, "handlers", [console, to_file])
-    monkeypatch.setattr(logger, "level", logging.INFO)
+def test_no_terminal_no_bar_and_the_line_goes_to_every_handler(progress_logger):
+    _, console_text, file_text = progress_logger
     reporter = ProgressReporter(10, ["f1", "f2"])  # pytest's stdout is not a terminal
     assert reporter.bar is None
     reporter.update(1, _data(), {})
@@ -49,11 +62,9 @@ def test_no_terminal_no_bar_and_the_line_goes_to_every_handler(monkeypatch):
     assert "evals 3/10" in console_text.getvalue() and "evals 3/10" in file_text.getvalue()
 
 
-def test_in_a_terminal_the_bar_shows_and_the_log_file_still_gets_the_line(monkeypatch):
-    console, to_file, console_text, file_text = _handlers()
-    logger = logging.getLogger("tmopt.progress")
-    monkeypatch.setattr(logger, "handlers", [console, to_file])
-    monkeypatch.setattr(logger, "level", logging.INFO)
+def test_in_a_terminal_the_bar_shows_and_the_log_file_still_gets_the_line(monkeypatch,
+                                                                           progress_logger):
+    console, console_text, file_text = progress_logger
     bar_text = io.StringIO()
     monkeypatch.setattr(progress.sys, "stdout", type("Tty", (io.StringIO,), {
         "isatty": lambda self: True})())
