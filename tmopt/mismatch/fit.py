@@ -779,10 +779,7 @@ def tone_part(series: np.ndarray, time: np.ndarray, tones: list[float],
     tone's pair differentiated exactly); zeros without tones."""
     if not tones:
         return np.zeros_like(series)
-    t = time - time[0]
-    w = [2 * math.pi * f0 for f0 in tones]
-    basis = np.column_stack([f(wk * t) for wk in w for f in (np.sin, np.cos)])
-    coef, *_ = np.linalg.lstsq(basis, series, rcond=None)
+    t, w, basis, coef = _tone_fit(series, time, tones)
     if not derivative:
         return basis @ coef
     # d/dt (s sin wt + c cos wt) = w (s cos wt - c sin wt)
@@ -1186,6 +1183,16 @@ def _curvature_instrument(data: Data) -> np.ndarray:
                      for a in range(4)])  # fmt: skip
 
 
+def _tone_fit(series: np.ndarray, time: np.ndarray, tones: list[float]):
+    """Least squares by a sine and a cosine per tone: ``(t, w, basis, coef)`` with ``t``
+    from the first sample, ``w`` the angular frequencies, ``coef`` (sin, cos) per tone."""
+    t = time - time[0]
+    w = [2 * math.pi * f0 for f0 in tones]
+    basis = np.column_stack([f(wk * t) for wk in w for f in (np.sin, np.cos)])
+    coef, *_ = np.linalg.lstsq(basis, series, rcond=None)
+    return t, w, basis, coef
+
+
 def tone_response(series: np.ndarray, time: np.ndarray, tones: list[float],
                   response) -> np.ndarray:  # fmt: skip
     """:func:`tone_part` of ``series`` with each tone passed through a linear filter of
@@ -1193,10 +1200,7 @@ def tone_response(series: np.ndarray, time: np.ndarray, tones: list[float],
     sum_j h_j x_{n-j}``): amplitude times ``|H|``, phase advanced by ``arg H``."""
     if not tones:
         return np.zeros_like(series)
-    t = time - time[0]
-    w = [2 * math.pi * f0 for f0 in tones]
-    basis = np.column_stack([f(wk * t) for wk in w for f in (np.sin, np.cos)])
-    coef, *_ = np.linalg.lstsq(basis, series, rcond=None)
+    t, w, _, coef = _tone_fit(series, time, tones)
     out = np.zeros_like(series)
     for k, wk in enumerate(w):
         hk = response(wk)
