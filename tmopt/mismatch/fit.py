@@ -1168,7 +1168,7 @@ def _curvature_instrument(data: Data) -> np.ndarray:
     difference lifts the loop's broadband force (readout noise fed back) by ``16/(w h)^2``
     against the tones, and what of it leaks into a tone fit is noise, correlated with the
     readout noise in the target -- on clean integrating-readout recordings at 8-10 Hz its
-    standard errors were 2-5 times these, and two estimates sat 2 of them above 1/6
+    standard errors were up to 5 times these, and two estimates sat 2 of them above 1/6
     (docs/mismatch.md 9.27)."""
     n, h = data.kin_index, data.dt
     g = np.asarray(_kin_coefficients(data)[2], float)
