@@ -31,8 +31,10 @@ that takes Euler steps and records the acceleration at the sample obeys the ``he
 with a *half-step* term, ``beta g (a_n - a_{n-1})`` beside ``g (a_n + a_{n-1})``: ``beta``
 = +1 for one symplectic Euler (or Verlet) step per sample (``x_{n+1} - 2 x_n + x_{n-1} =
 h^2 a_n`` exactly, at any k), -1 for one explicit Euler step (``h^2 a_{n-1}``), ``+-1/N``
-for N sub-steps (``Data.halfstep``, chosen from the data: :func:`_halfstep`; 9.26).  The
-ZOH relations reduce to
+for N sub-steps (``Data.halfstep``, chosen from the data: :func:`_halfstep`; 9.26).  A
+readout that reports the step's mean position adds a *curvature* term ``lambda h^2`` times
+the accelerations' second difference beside the explicit one (``lambda`` = 1/6;
+``Data.curvature``, :func:`choose_curvature`; 9.27).  The ZOH relations reduce to
 ``h^2/2`` at k = 0; ``held`` and ``end`` differ from the k = 0 form by ``~k h^3 v/2``, which
 at LPF-like |k| ~ 1e-6..2e-6 s^-2 reaches ~1e-13 m per sample at 2 Hz.  k is the
 equation group's estimate; the convention is read from the recording's ``acc_sampling``
