@@ -34,7 +34,8 @@ readout's second difference ``h^2 a_n``, one ``explicit`` step (``r += h v; v +=
 term beside the ZOH relation.  ``--conventions`` takes ``symplectic``, ``explicit`` and
 ``symplectic10`` (N = 10) etc.; ``bench --recorded symplectic`` records the benchmark's
 foreign cases that way; ``--tool three`` is the tool without the half-step term (stop
-49's), ``halfstep`` (the default) the shipped one:
+49's), ``halfstep`` stop 50's (with the half-step term; the default,
+``curvature``, is the shipped one):
 
     python experiments/mismatch_conventions.py survey --seeds 37164-37173 \
         --conventions symplectic,explicit --tool three --out before.jsonl
