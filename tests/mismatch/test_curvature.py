@@ -23,6 +23,7 @@ from tmopt.mismatch.diagnose import diagnose, prepare
 from tmopt.mismatch.fit import data_from_recording, kinematic_target
 from tmopt.mismatch.realistic import Background, draw_scenario, realistic_recording
 from tmopt.mismatch.report import _data_line, build_report
+from tmopt.physics.geometry import Geometry
 
 QUIET = Background({k: 1e-9 for k in ("m1", "m2", "acc", "ele", "fb")}, 1e-9, 1e9, 1e-9, 1.0)
 STIFFNESS = (1.8e-6, -1.6e-6, 1.2e-6, -1.5e-6)
@@ -135,3 +136,23 @@ def test_bad_readout_sampling_is_one_clear_line_before_any_work():
 def test_the_read_sets_scenarios_are_written_as_before():
     assert "readout_sampling" not in draw_scenario(5, "foreign").as_dict()
     assert draw_scenario(5, "foreign").readout_sampling == "point"
+
+
+@pytest.mark.parametrize("beta", [-1.0, 0.0, 0.5, 1.0])
+def test_the_curvature_never_reaches_across_a_gap(beta):
+    """:func:`fit.acc_curvature` against a loop over each segment's rows: ``c_{n-1}``
+    where ``a_{n-2}`` is in the segment, ``c_n`` at its first row (segments of 15, 3, 22)."""
+    rng = np.random.default_rng(0)
+    n = 40
+    d = fit.Data(time=np.arange(n) * 0.5, fs=2.0, x=rng.standard_normal((4, n)),
+                 acc=rng.standard_normal((4, n)), force=np.zeros((4, n)),
+                 geometry=Geometry(0.5, -0.5), segments=[(0, 15), (15, 18), (18, 40)],
+                 halfstep=beta)  # fmt: skip
+    a, w = d.acc, 0.5 * (1 + beta)
+    want = []
+    for lo, hi in d.segments:
+        for m in range(lo + 1, hi - 1):
+            c_n = a[:, m + 1] - 2 * a[:, m] + a[:, m - 1]
+            c_prev = a[:, m] - 2 * a[:, m - 1] + a[:, m - 2] if m - 2 >= lo else c_n
+            want.append(w * c_n + (1 - w) * c_prev)
+    assert np.array_equal(fit.acc_curvature(d), np.array(want).T)

@@ -656,11 +656,9 @@ def acc_curvature(data: Data) -> np.ndarray:
     w = 0.5 * (1.0 + float(data.halfstep))
     if w >= 1.0:
         return c_n
-    c_prev = np.array(c_n)
-    inside = n - 2 >= np.repeat([s for s, _ in data.segments],
-                                [max(b - s - 2, 0) for s, b in data.segments])  # fmt: skip
-    m = n[inside]
-    c_prev[:, inside] = a[:, m] - 2.0 * a[:, m - 1] + a[:, m - 2]
+    c_prev = a[:, n] - 2.0 * a[:, n - 1] + data.lagged(a, 2)[:, n]
+    across = data.lagged(np.ones(data.n), 2)[n] == 0  # n - 2 in another segment
+    c_prev[:, across] = c_n[:, across]
     return w * c_n + (1.0 - w) * c_prev
 
 
