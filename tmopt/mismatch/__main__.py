@@ -54,6 +54,10 @@ def _parser() -> argparse.ArgumentParser:
                         "estimated with every kinematic column fitted (off by default: its "
                         "null is heavy-tailed where the tones sit in the record's lowest "
                         "bins; docs/mismatch.md 9.24)")  # fmt: skip
+    p.add_argument("--no-witness-refit", action="store_true",
+                   help="read a witness-driven candidate (rotation coupling) under the "
+                        "null's noise model only, not also under the alternative's (on by "
+                        "default, docs/mismatch.md 9.28)")  # fmt: skip
     p.add_argument("--rails", choices=RAILS, default="fallback",
                    help="samples where a measured channel sits at its rail (an ADC "
                         "saturating): read as measurements, left out as gaps (mask), or "
@@ -89,7 +93,8 @@ def main(argv: list[str] | None = None) -> int:
                         shape_placements=not args.no_shape_placements,
                         pairs=not args.no_pairs,
                         true_position=not args.no_true_position,
-                        rails=args.rails, kin_refit=args.kin_refit)  # fmt: skip
+                        rails=args.rails, kin_refit=args.kin_refit,
+                        witness_refit=not args.no_witness_refit)  # fmt: skip
     dg = diagnose(data_from_recording(rec), settings)
     rep = write_report(dg, args.out, plots=not args.no_plots)
     print(rep["conclusion"])

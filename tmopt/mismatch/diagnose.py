@@ -140,6 +140,11 @@ class Settings:
     # the tones sit in the record's lowest bins its null is heavy-tailed -- on a never-seen
     # draw it named one readout scale more and one wrong name more (foreign 230034)
     kin_refit: bool = False
+    # also read a witness-driven candidate (its columns from the attitude witnesses, not
+    # the TM loop: rotation coupling) under the noise model estimated with it fitted
+    # (:func:`_witness_alternative`, docs 9.28): a slew over half the record is taken into
+    # the null's spectrum (kernel 260057: GLR 17.8 under it, 142.8 under the alternative's)
+    witness_refit: bool = True
 
     def __post_init__(self) -> None:
         if not (0 < self.alpha < 1 and 0 < self.locate_alpha < 1):
@@ -152,7 +157,8 @@ class Settings:
         if self.noise not in ("coloured", "white"):
             raise ValueError(f"noise must be 'coloured' or 'white'; got {self.noise!r}")
         for name in ("generic", "joint", "rejudge", "in_place", "shape_search",
-                     "shape_placements", "pairs", "true_position", "kin_refit"):
+                     "shape_placements", "pairs", "true_position", "kin_refit",
+                     "witness_refit"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name} must be True or False; got {getattr(self, name)!r}")
         if self.rails not in RAILS:
@@ -569,7 +575,38 @@ def _statistic(cand: Candidate, groups: dict) -> float:
     alt = groups.get("kinematic_alt") if cand.group == "kinematic" else None
     if alt is not None:
         lam = max(lam, alt.glr(cand.columns) / cal.KIN_REFIT_INFLATION)
+    witness = groups.get("witness_alt")
+    if witness is not None and _witness_driven(cand) and any(np.any(c.values)
+                                                             for c in cand.columns):
+        lam = max(lam, witness(cand.columns) / cal.WITNESS_REFIT_INFLATION)
     return lam
+
+
+def _witness_driven(cand: Candidate) -> bool:
+    model = EFFECTS.get(cand.effect)
+    return cand.group == "equation" and model is not None and model.witness_driven
+
+
+def _witness_alternative(data: Data, basis: np.ndarray, state: State, settings: Settings):
+    """``columns -> L_alt`` for a witness-driven candidate (``Effect.witness_driven``):
+    its GLR with the equation group's noise model re-estimated from the residual of the
+    fit *with* its columns (:func:`tmopt.mismatch.joint.alt_glr`); None when
+    ``settings.witness_refit`` is off.  :func:`_statistic` reads it as ``L_alt / c``,
+    ``c = cal.WITNESS_REFIT_INFLATION``, the null's inflation on clean flight-like
+    recordings whose witnesses move (experiments/mismatch_witness_null.py).
+
+    Why: the noise model under the null is estimated from a residual that still holds the
+    effect.  A rotation's slew lasts half the record: its power sits in the lowest bins,
+    where the smooth spectrum rests on a few periodogram values, and is taken into the
+    spectrum and whitened away with it (kernel 260057: GLR 17.8, p 1e-2 after the
+    catalogue's multiplicity; 142.8 under the alternative's model, as the physical limit's
+    visible SNR 12.1 says).  A column driven by a witness outside the loop holds none of
+    the TM noise, and one candidate per step costs one equation fit."""
+    if not settings.witness_refit:
+        return None
+    from tmopt.mismatch.joint import alt_glr
+
+    return lambda cols: alt_glr(data, basis, state, cols)[0]
 
 
 def evaluate(data: Data, basis: np.ndarray, state: State, settings: Settings,
@@ -599,6 +636,7 @@ def _tests(data: Data, basis: np.ndarray, state: State, settings: Settings,
     unnamed = generic.candidates(ctx) if settings.generic else []
     groups = residual_groups(data, state)
     groups["kinematic_alt"] = _kin_alternative_group(data, state, named + unnamed, settings)
+    groups["witness_alt"] = _witness_alternative(data, basis, state, settings)
     out = []
     for cand in named:
         if cand.group == "noise":
@@ -922,6 +960,7 @@ def _given(data, basis, chosen: list[Evaluation], i: int, settings: Settings,
             kin = _kin_candidates(data, basis, st, settings)
             kin += [cand] if cand.key not in {c.key for c in kin} else []
             groups["kinematic_alt"] = _kin_alternative_group(data, st, kin, settings)
+        groups["witness_alt"] = _witness_alternative(data, basis, st, settings)
         g = groups[cand.group]
         lam = _statistic(cand, groups)
         dof, n, trials = len(cand.columns), g.n, cand.trials

@@ -62,17 +62,24 @@ from scipy import stats
 from tmopt.mismatch import calibration as cal
 from tmopt.mismatch.effects import EFFECTS
 
-__all__ = ["DRIFT_LIKE", "INFLATION", "TOP", "PAIR_TOP", "MAX_ADDED", "family", "alt_statistics",
-           "JointTest", "extend", "screened", "pair_indices", "trials", "retest", "eligible",
-           "alt_glr"]
+__all__ = ["DRIFT_LIKE", "WITNESS_DRIVEN", "INFLATION", "TOP", "PAIR_TOP", "MAX_ADDED", "family",
+           "alt_statistics", "JointTest", "extend", "screened", "pair_indices", "trials",
+           "retest", "eligible", "alt_glr"]
 
 #: Effects whose columns are slow in time: their null distribution under the
 #: alternative's noise is inflated by the 1/f^2 acceleration noise (random-walk ramps).
 DRIFT_LIKE = frozenset(name for name, e in EFFECTS.items() if e.slow_in_time)
 
+#: Effects whose columns come from witness channels outside the TM loop (rotation
+#: coupling): their own family, calibrated on clean recordings whose witnesses move
+#: (``calibration.WITNESS_REFIT_INFLATION``, the selection's factor for them too).
+WITNESS_DRIVEN = frozenset(name for name, e in EFFECTS.items() if e.witness_driven)
+
 #: Per family, the factor by which ``L`` under the alternative's noise exceeds chi^2 in
-#: the upper tail on clean flight-like recordings (calibrated: docs/mismatch.md 9.9).
-INFLATION = cal.JOINT_INFLATION
+#: the upper tail on clean flight-like recordings (calibrated: docs/mismatch.md 9.9; the
+#: witness family 9.28 -- the clean recordings of 9.9 had still witnesses, so a rotation
+#: column was never tested there).
+INFLATION = {**cal.JOINT_INFLATION, "witness": cal.WITNESS_REFIT_INFLATION}
 
 #: Candidates re-tested per recording (by null GLR), of them paired when nothing is
 #: selected, and additions at most.
@@ -80,7 +87,9 @@ TOP, PAIR_TOP, MAX_ADDED = 6, 4, 2
 
 
 def family(effect: str) -> str:
-    return "drift" if effect in DRIFT_LIKE else "other"
+    if effect in DRIFT_LIKE:
+        return "drift"
+    return "witness" if effect in WITNESS_DRIVEN else "other"
 
 
 @dataclass
@@ -172,7 +181,7 @@ def alt_statistics(data, basis, state, evals: list, settings, pairs: bool,
             glr_alt=glr, dof=len(cols),
             trials=math.prod(e.candidate.trials for e in members),
             n_searched=sum(e.candidate.n_searched for e in members), n_obs=n,
-            family="drift" if "drift" in fams else "other"))  # fmt: skip
+            family=max(fams, key=INFLATION.__getitem__)))  # fmt: skip
     return out
 
 

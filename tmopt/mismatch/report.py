@@ -323,7 +323,8 @@ def _settings(dg: Diagnosis) -> dict:
             "shape_search": dg.settings.shape_search,
             "shape_placements": dg.settings.shape_placements,
             "pairs": dg.settings.pairs, "true_position": dg.settings.true_position,
-            "rails": dg.settings.rails, "kin_refit": dg.settings.kin_refit}  # fmt: skip
+            "rails": dg.settings.rails, "kin_refit": dg.settings.kin_refit,
+            "witness_refit": dg.settings.witness_refit}  # fmt: skip
 
 
 def build_report(dg: Diagnosis) -> dict:

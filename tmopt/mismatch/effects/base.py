@@ -270,6 +270,12 @@ class Effect:
     #: Slow in time (a ramp): under coloured noise its statistic is inflated by the 1/f^2
     #: acceleration noise's random-walk 'ramps' (the joint stage's drift family).
     slow_in_time: ClassVar[bool] = False
+    #: Its columns are built from witness channels measured outside the test-mass loop
+    #: (the spacecraft's attitude), not from a test mass's own motion or force: they carry
+    #: none of the TM noise.  Its statistic is also read under the noise model estimated
+    #: with it fitted (:func:`tmopt.mismatch.diagnose._witness_alternative`): estimated
+    #: without it, a slow one's power is taken into the spectrum and whitened away.
+    witness_driven: ClassVar[bool] = False
 
     # ---- generator side ---------------------------------------------------------------
 

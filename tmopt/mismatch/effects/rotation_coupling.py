@@ -40,6 +40,7 @@ class RotationCoupling(Effect):
                    "witnesses) produces Euler and centrifugal accelerations at the test "
                    "masses, which sit off the centre of mass (lever arm r12)")  # fmt: skip
     needs = "spacecraft attitude motion and the six sc_omega* witness channels"
+    witness_driven = True  # the sc_omega* channels drive its columns
     calibration = Calibration("omega_z", {"profile": "slew"}, 8.6e-11, 5.0, 9e-10, 51.9, "eq")
 
     def inject(self, inj: Injection, b: Builder) -> dict[str, Any]:

@@ -1,0 +1,245 @@
+"""A witness-driven candidate's statistic under the alternative's noise model (rotation
+coupling; docs/mismatch.md 9.28; :func:`tmopt.mismatch.diagnose._witness_alternative`).
+
+    python experiments/mismatch_witness_null.py null --seed-base 37200 --n 60 \
+        --out results/mismatch_witness_null/null.jsonl
+    python experiments/mismatch_witness_null.py summary results/mismatch_witness_null/null.jsonl
+    python experiments/mismatch_witness_null.py diagnose --seed-base 37260 --n 20 \
+        --out results/mismatch_witness_null/diagnose.jsonl
+    python experiments/mismatch_witness_null.py case kernel:260057 foreign:250057 ...
+
+* ``null`` -- clean flight-like recordings of both simulators (calibration seeds < 40000)
+  whose attitude witnesses move with no coupling force (the null of the test: a column
+  shaped like the witnesses, none of it in the data): per recording and per witness motion
+  (:data:`MOTIONS`), the rotation candidate's statistic ``L`` under the null's noise model
+  and ``L_alt`` under the alternative's, at the nominal fit (JSON lines, resumable);
+* ``summary`` -- from those rows: the ratio ``L_alt / L``, the largest ``L_alt``, tail
+  counts, and the smallest ``c`` at which no ``L_alt / c`` reaches the selection's level
+  (:func:`level`) -- the rule of ``calibration.WITNESS_REFIT_INFLATION``;
+* ``diagnose`` -- the whole tool on such recordings (one motion each, in turn): a false
+  alarm is any mismatch said;
+* ``case`` -- a benchmark recording (``backend:seed``): its rotation candidate's two
+  statistics at the nominal fit.
+
+Rates are arbitrary (1e-9 rad/s peak): the statistics do not depend on a column's scale.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+from scipy import stats
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+#: The selection's level for a 2-parameter candidate: chi^2_2 at FAMILY_ALPHA over the
+#: catalogue's size (~150 candidates a step).
+CATALOGUE_SIZE = 150
+#: Witness motions of the null: slews about z (in-plane Euler term on the y axes) and
+#: about x (out of plane: centrifugal terms only), slow attitude jitter about z and about
+#: all three axes (the realistic generator's two profiles).
+MOTIONS = ("slew_z", "slew_x", "jitter_z", "jitter_xyz")
+PEAK = 1e-9
+
+
+def level() -> float:
+    from tmopt.mismatch import calibration as cal
+
+    return float(stats.chi2.isf(cal.FAMILY_ALPHA / CATALOGUE_SIZE, 2))
+
+
+def motion(time: np.ndarray, kind: str, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Witness rate and angular acceleration (3, N) of ``kind`` at ``time`` [s]: a slew
+    with onset and length drawn from ``seed`` (onset in the first 60 % of the record,
+    length 10-60 % of it), or the generator's slow jitter."""
+    from tmopt.mismatch.effects.rotation_coupling import _jitter, _slew
+
+    rng = np.random.default_rng(np.random.SeedSequence([seed, 0x5E11]))
+    t = np.where(np.isfinite(time), time, 0.0)
+    span = float(np.nanmax(time) - np.nanmin(time))
+    w, wd = np.zeros((3, t.size)), np.zeros((3, t.size))
+    if kind.startswith("slew"):
+        t0 = float(np.nanmin(time)) + rng.uniform(0.0, 0.6) * span
+        t1 = min(t0 + rng.uniform(0.1, 0.6) * span, float(np.nanmax(time)))
+        j = "xyz".index(kind[-1])
+        w[j], wd[j] = _slew(t, t0, t1, PEAK * rng.choice((-1.0, 1.0)))
+    else:
+        for j in (range(3) if kind == "jitter_xyz" else (2,)):
+            w[j], wd[j] = _jitter(t, PEAK, seed, j)
+    bad = ~np.isfinite(time)
+    w[:, bad], wd[:, bad] = np.nan, np.nan
+    return w, wd
+
+
+def statistics_of(rec, seed: int) -> list[tuple[str, float, float]]:
+    """``(motion, L, L_alt)`` of the rotation candidate at the nominal fit of ``rec``
+    with each of :data:`MOTIONS` in its witnesses."""
+    from tmopt.mismatch.diagnose import Settings, fit_state, prepare, residual_groups
+    from tmopt.mismatch.effects import Context
+    from tmopt.mismatch.effects.rotation_coupling import RotationCoupling
+    from tmopt.mismatch.fit import data_from_recording
+    from tmopt.mismatch.joint import alt_glr
+
+    d, basis = prepare(data_from_recording(rec))
+    s = fit_state(d, basis, [], [], False, Settings())
+    group = residual_groups(d, s)["equation"]
+    out = []
+    for kind in MOTIONS:
+        d.omega, d.omega_dot = motion(d.time, kind, seed)
+        cand = RotationCoupling().candidates(Context(d, basis, s.eq_fit.residual, s.eq_noise))[0]
+        out.append((kind, group.glr(cand.columns), alt_glr(d, basis, s, cand.columns)[0]))
+    return out
+
+
+def with_witnesses(rec, kind: str, seed: int):
+    """``rec`` with its attitude witnesses moving as ``kind`` (no coupling force)."""
+    from tmopt.physics.recording import Recording, validate
+
+    w, wd = motion(np.asarray(rec["time"], float), kind, seed)
+    chans = dict(rec.channels)
+    for j, c in enumerate("xyz"):
+        chans[f"sc_omega_{c}"], chans[f"sc_omega_dot_{c}"] = w[j], wd[j]
+    return validate(Recording(chans, dict(rec.attrs), source=rec.source))
+
+
+def _clean(seed: int, backend: str):
+    from tmopt.mismatch.realistic import draw_scenario, realistic_recording
+
+    return realistic_recording(draw_scenario(seed, backend), (), (), seed, backend)[0]
+
+
+def _done(out: Path) -> set:
+    return {(r["backend"], r["seed"]) for r in map(json.loads, out.open())} \
+        if out.exists() else set()  # fmt: skip
+
+
+def null(seed_base: int, n: int, out: Path) -> None:
+    out.parent.mkdir(parents=True, exist_ok=True)
+    done = _done(out)
+    with out.open("a") as fh:
+        for i in range(n):
+            for b in ("kernel", "foreign"):
+                seed = seed_base + i
+                if (b, seed) in done:
+                    continue
+                rows = statistics_of(_clean(seed, b), seed)
+                fh.write(json.dumps({"backend": b, "seed": seed, "rows": rows}) + "\n")
+                fh.flush()
+                print(f"{b} {seed}: " + ", ".join(f"{k} L {lam:.1f} L_alt {a:.1f}"
+                                                  for k, lam, a in rows), flush=True)  # fmt: skip
+
+
+def summary(paths: list[str]) -> None:
+    rows = [json.loads(x) for p in paths for x in open(p)]
+    flat = [(r["backend"], r["seed"], *x) for r in rows for x in r["rows"]]
+    lam = np.array([x[3] for x in flat])
+    alt = np.array([x[4] for x in flat])
+    print(f"{len(rows)} recordings, {len(flat)} witness motions ({', '.join(MOTIONS)})")
+    ok = lam > 1.0
+    if ok.any():
+        r = alt[ok] / lam[ok]
+        print(f"L_alt / L where L > 1: median {np.median(r):.3f}, 90 % {np.quantile(r, 0.9):.3f}, "
+              f"max {r.max():.3f}")  # fmt: skip
+    for kind in MOTIONS:
+        sel = np.array([x[2] == kind for x in flat])
+        print(f"  {kind}: L median {np.median(lam[sel]):.2f} max {lam[sel].max():.2f}; "
+              f"L_alt median {np.median(alt[sel]):.2f} max {alt[sel].max():.2f}")  # fmt: skip
+    order = np.argsort(-alt)[:5]
+    print("largest L_alt: " + "; ".join(f"{flat[i][0]} {flat[i][1]} {flat[i][2]} "
+                                         f"L {lam[i]:.2f} L_alt {alt[i]:.2f}" for i in order))
+    cs = (1.0, 1.5, 2.0, 3.0)
+    print(f"tail counts above chi^2_2's point at q (expected n q; L alone; max(L, L_alt/c) "
+          f"for c in {cs}):")  # fmt: skip
+    for q in (0.05, 0.01, 0.001):
+        thr = stats.chi2.isf(q, 2)
+        counts = [int(np.sum(np.maximum(lam, alt / c) > thr)) for c in cs]
+        print(f"  q {q}: expected {len(flat) * q:.1f}, L {int(np.sum(lam > thr))}, {counts}")
+    lev = level()
+    need = float(alt.max() / lev) if alt.size else 1.0
+    print(f"selection level {lev:.2f}: the smallest c at which no candidate reaches it: "
+          f"{max(need, 1.0):.3f}")  # fmt: skip
+
+
+def diagnose_rows(seed_base: int, n: int, out: Path) -> None:
+    from tmopt.mismatch.diagnose import diagnose
+    from tmopt.mismatch.fit import data_from_recording
+    from tmopt.mismatch.report import build_report
+
+    out.parent.mkdir(parents=True, exist_ok=True)
+    done = _done(out)
+    with out.open("a") as fh:
+        for i in range(n):
+            for b in ("kernel", "foreign"):
+                seed = seed_base + i
+                if (b, seed) in done:
+                    continue
+                kind = MOTIONS[i % len(MOTIONS)]
+                rep = build_report(diagnose(data_from_recording(
+                    with_witnesses(_clean(seed, b), kind, seed))))  # fmt: skip
+                row = {"backend": b, "seed": seed, "motion": kind,
+                       "alarm": bool(rep["mismatch_detected"]),
+                       "names": [f"{e['name']}[{e['channel']}]" for e in rep["effects"]],
+                       "unexplained": (rep.get("unexplained_at") or {}).get("channels", [])}
+                fh.write(json.dumps(row) + "\n")
+                fh.flush()
+                print(json.dumps(row), flush=True)
+    rows = [json.loads(x) for x in out.open()]
+    alarms = [r for r in rows if r["alarm"]]
+    rot = [r for r in rows if any(x.startswith("rotation") for x in r["names"])]
+    print(f"{len(rows)} clean recordings with moving witnesses: {len(alarms)} alarms, "
+          f"{len(rot)} naming a rotation coupling")  # fmt: skip
+
+
+def case(specs: list[str]) -> None:
+    from mismatch_realistic import case_recording
+
+    from tmopt.mismatch.diagnose import Settings, fit_state, prepare, residual_groups
+    from tmopt.mismatch.effects import Context
+    from tmopt.mismatch.effects.rotation_coupling import RotationCoupling
+    from tmopt.mismatch.fit import data_from_recording
+    from tmopt.mismatch.joint import alt_glr
+
+    for spec in specs:
+        b, seed = spec.split(":")
+        rec, _ = case_recording(b, int(seed))
+        d, basis = prepare(data_from_recording(rec))
+        s = fit_state(d, basis, [], [], False, Settings())
+        cands = RotationCoupling().candidates(Context(d, basis, s.eq_fit.residual, s.eq_noise))
+        if not cands:
+            print(f"{spec}: no attitude witnesses")
+            continue
+        cols = cands[0].columns
+        print(f"{spec}: L {residual_groups(d, s)['equation'].glr(cols):.2f} "
+              f"L_alt {alt_glr(d, basis, s, cols)[0]:.2f}")  # fmt: skip
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    for name in ("null", "diagnose"):
+        p = sub.add_parser(name)
+        p.add_argument("--seed-base", type=int, default=37200 if name == "null" else 37260)
+        p.add_argument("--n", type=int, default=60 if name == "null" else 20)
+        p.add_argument("--out", default=f"results/mismatch_witness_null/{name}.jsonl")
+    sub.add_parser("summary").add_argument("paths", nargs="+")
+    sub.add_parser("case").add_argument("recordings", nargs="+")
+    a = ap.parse_args(argv)
+    if a.cmd in ("null", "diagnose"):
+        if a.n < 1 or not 0 <= a.seed_base < 40000:
+            print("--n must be >= 1 and --seed-base in [0, 40000) (calibration seeds)",
+                  file=sys.stderr)  # fmt: skip
+            return 2
+        (null if a.cmd == "null" else diagnose_rows)(a.seed_base, a.n, Path(a.out))
+    elif a.cmd == "summary":
+        summary(a.paths)
+    elif a.cmd == "case":
+        case(a.recordings)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
