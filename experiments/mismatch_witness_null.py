@@ -7,6 +7,8 @@ coupling; docs/mismatch.md 9.28; :func:`tmopt.mismatch.diagnose._witness_alterna
     python experiments/mismatch_witness_null.py diagnose --seed-base 37260 --n 20 \
         --out results/mismatch_witness_null/diagnose.jsonl
     python experiments/mismatch_witness_null.py case kernel:260057 foreign:250057 ...
+    python experiments/mismatch_witness_null.py moving --rows RUN/realistic_rows.jsonl \
+        --out results/mismatch_witness_null/moving.jsonl
 
 * ``null`` -- clean flight-like recordings of both simulators (calibration seeds < 40000)
   whose attitude witnesses move with no coupling force (the null of the test: a column
@@ -19,7 +21,11 @@ coupling; docs/mismatch.md 9.28; :func:`tmopt.mismatch.diagnose._witness_alterna
 * ``diagnose`` -- the whole tool on such recordings (one motion each, in turn): a false
   alarm is any mismatch said;
 * ``case`` -- a benchmark recording (``backend:seed``): its rotation candidate's two
-  statistics at the nominal fit.
+  statistics at the nominal fit;
+* ``moving`` -- benchmark recordings of a finished run (``--rows``) that hold no
+  rotation, diagnosed again with their witnesses moving (one motion each, in turn; no
+  coupling added): what the tool says beside what the run's row says -- would a
+  simulator whose attitude always moves make the rotation a wrong name?
 
 Rates are arbitrary (1e-9 rad/s peak): the statistics do not depend on a column's scale.
 """
@@ -217,6 +223,45 @@ def case(specs: list[str]) -> None:
               f"L_alt {alt_glr(d, basis, s, cols)[0]:.2f}")  # fmt: skip
 
 
+def moving(rows_path: str, categories: list[str], out: Path) -> None:
+    from mismatch_realistic import case_recording, score
+
+    from tmopt.mismatch.diagnose import diagnose
+    from tmopt.mismatch.fit import data_from_recording
+    from tmopt.mismatch.report import build_report
+
+    rows = [json.loads(x) for x in open(rows_path)]
+    rows = [r for r in rows if r["category"] in categories and "rotation" not in r["truth"]
+            and "found" in r]  # fmt: skip
+    out.parent.mkdir(parents=True, exist_ok=True)
+    done = _done(out)
+    with out.open("a") as fh:
+        for i, r in enumerate(rows):
+            if (r["backend"], r["seed"]) in done:
+                continue
+            rec, truth = case_recording(r["backend"], r["seed"])
+            kind = MOTIONS[i % len(MOTIONS)]
+            rep = build_report(diagnose(data_from_recording(
+                with_witnesses(rec, kind, r["seed"]))))  # fmt: skip
+            new = score(rep, truth)
+            row = {"backend": r["backend"], "seed": r["seed"], "category": r["category"],
+                   "truth": r["truth"], "motion": kind, "found_still": r["found"],
+                   "found_moving": new["found"],
+                   "unexplained_still": r["unexplained_channels"],
+                   "unexplained_moving": new["unexplained_channels"],
+                   "wrong_still": r["wrong"], "wrong_moving": new["wrong"]}  # fmt: skip
+            fh.write(json.dumps(row) + "\n")
+            fh.flush()
+            print(json.dumps(row), flush=True)
+    rows = [json.loads(x) for x in out.open()]
+    same = [r for r in rows if r["found_still"] == r["found_moving"]
+            and r["unexplained_still"] == r["unexplained_moving"]]  # fmt: skip
+    rot = [r for r in rows if "rotation" in r["found_moving"]]
+    print(f"{len(rows)} recordings with moving witnesses: {len(same)} say what they said; "
+          f"{len(rot)} name a rotation coupling; wrong names {sum(r['wrong_moving'] for r in rows)}"
+          f" (still: {sum(r['wrong_still'] for r in rows)})")  # fmt: skip
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -227,6 +272,11 @@ def main(argv: list[str] | None = None) -> int:
         p.add_argument("--out", default=f"results/mismatch_witness_null/{name}.jsonl")
     sub.add_parser("summary").add_argument("paths", nargs="+")
     sub.add_parser("case").add_argument("recordings", nargs="+")
+    p = sub.add_parser("moving")
+    p.add_argument("--rows", required=True, help="a finished run's realistic_rows.jsonl")
+    p.add_argument("--categories", default="out-of-catalogue,pair",
+                   help="comma-separated benchmark categories (default: %(default)s)")
+    p.add_argument("--out", default="results/mismatch_witness_null/moving.jsonl")
     a = ap.parse_args(argv)
     if a.cmd in ("null", "diagnose"):
         if a.n < 1 or not 0 <= a.seed_base < 40000:
@@ -238,6 +288,8 @@ def main(argv: list[str] | None = None) -> int:
         summary(a.paths)
     elif a.cmd == "case":
         case(a.recordings)
+    else:
+        moving(a.rows, a.categories.split(","), Path(a.out))
     return 0
 
 
