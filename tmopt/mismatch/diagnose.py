@@ -568,7 +568,10 @@ def _statistic(cand: Candidate, groups: dict) -> float:
     (``groups["kinematic_alt"]``, :func:`_kin_alternative_group`, when
     ``Settings.kin_refit`` is on) as ``max(L, L_alt / c)``, ``c =
     cal.KIN_REFIT_INFLATION`` the smallest factor at which no kinematic candidate of 120
-    clean flight-like recordings reaches the selection's level (docs/mismatch.md 9.24)."""
+    clean flight-like recordings reaches the selection's level (docs/mismatch.md 9.24); a
+    witness-driven one likewise with ``groups["witness_alt"]``
+    (:func:`_witness_alternative`, ``Settings.witness_refit``, on) and ``c =
+    cal.WITNESS_REFIT_INFLATION`` (9.28)."""
     if cand.twin is not None and cand.twin_tested:
         return _joint(cand, groups)
     lam = groups[cand.group].glr(cand.columns)
@@ -576,15 +579,16 @@ def _statistic(cand: Candidate, groups: dict) -> float:
     if alt is not None:
         lam = max(lam, alt.glr(cand.columns) / cal.KIN_REFIT_INFLATION)
     witness = groups.get("witness_alt")
-    if witness is not None and _witness_driven(cand) and any(np.any(c.values)
-                                                             for c in cand.columns):
+    if witness is not None and _witness_moves(cand):
         lam = max(lam, witness(cand.columns) / cal.WITNESS_REFIT_INFLATION)
     return lam
 
 
-def _witness_driven(cand: Candidate) -> bool:
+def _witness_moves(cand: Candidate) -> bool:
+    """A witness-driven equation candidate whose witnesses move (still ones: no column)."""
     model = EFFECTS.get(cand.effect)
-    return cand.group == "equation" and model is not None and model.witness_driven
+    return cand.group == "equation" and model is not None and model.witness_driven and \
+        any(np.any(c.values) for c in cand.columns)  # fmt: skip
 
 
 def _witness_alternative(data: Data, basis: np.ndarray, state: State, settings: Settings):
