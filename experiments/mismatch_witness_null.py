@@ -3,6 +3,7 @@ coupling; docs/mismatch.md 9.28; :func:`tmopt.mismatch.diagnose._witness_alterna
 
     python experiments/mismatch_witness_null.py null --seed-base 37200 --n 60 \
         --out results/mismatch_witness_null/null.jsonl
+    python experiments/mismatch_witness_null.py sizes results/mismatch_witness_null/null.jsonl
     python experiments/mismatch_witness_null.py summary results/mismatch_witness_null/null.jsonl
     python experiments/mismatch_witness_null.py diagnose --seed-base 37260 --n 20 \
         --out results/mismatch_witness_null/diagnose.jsonl
@@ -15,9 +16,12 @@ coupling; docs/mismatch.md 9.28; :func:`tmopt.mismatch.diagnose._witness_alterna
   shaped like the witnesses, none of it in the data): per recording and per witness motion
   (:data:`MOTIONS`), the rotation candidate's statistic ``L`` under the null's noise model
   and ``L_alt`` under the alternative's, at the nominal fit (JSON lines, resumable);
+* ``sizes`` -- the first step's catalogue size (its Holm multiplicity) of the recordings
+  with the largest ``L_alt`` (``--top``), added to their rows;
 * ``summary`` -- from those rows: the ratio ``L_alt / L``, the largest ``L_alt``, tail
   counts, and the smallest ``c`` at which no ``L_alt / c`` reaches the selection's level
-  (:func:`level`) -- the rule of ``calibration.WITNESS_REFIT_INFLATION``;
+  (:func:`level`) at 150 candidates and at each sized recording's own catalogue -- the
+  latter the rule of ``calibration.WITNESS_REFIT_INFLATION``;
 * ``diagnose`` -- the whole tool on such recordings (one motion each, in turn): a false
   alarm is any mismatch said;
 * ``case`` -- a benchmark recording (``backend:seed``): its rotation candidate's two
@@ -52,10 +56,10 @@ MOTIONS = ("slew_z", "slew_x", "jitter_z", "jitter_xyz")
 PEAK = 1e-9
 
 
-def level() -> float:
+def level(n_tests: int = CATALOGUE_SIZE) -> float:
     from tmopt.mismatch import calibration as cal
 
-    return float(stats.chi2.isf(cal.FAMILY_ALPHA / CATALOGUE_SIZE, 2))
+    return float(stats.chi2.isf(cal.FAMILY_ALPHA / n_tests, 2))
 
 
 def motion(time: np.ndarray, kind: str, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -168,6 +172,37 @@ def summary(paths: list[str]) -> None:
     need = float(alt.max() / lev) if alt.size else 1.0
     print(f"selection level {lev:.2f}: the smallest c at which no candidate reaches it: "
           f"{max(need, 1.0):.3f}")  # fmt: skip
+    sized = {(r["backend"], r["seed"]): r["n_tests"] for r in rows if "n_tests" in r}
+    if sized:  # the level at each recording's own first-step catalogue (``sizes``)
+        own = [x[4] / level(sized.get((x[0], x[1]), CATALOGUE_SIZE)) for x in flat]
+        i = int(np.argmax(own))
+        print(f"at each recording's own catalogue size ({len(sized)} recordings sized, the "
+              f"rest at {CATALOGUE_SIZE}): the smallest c at which none reaches it: "
+              f"{max(own[i], 1.0):.3f} ({flat[i][0]} {flat[i][1]} {flat[i][2]}, "
+              f"{sized.get((flat[i][0], flat[i][1]), CATALOGUE_SIZE)} candidates)")  # fmt: skip
+
+
+def sizes(paths: list[str], top: int) -> None:
+    """Adds ``n_tests`` -- the first step's catalogue size, the multiplicity its Holm
+    correction uses -- to the rows of the ``top`` recordings with the largest ``L_alt``
+    (their levels are the ones that decide the factor), rewriting each file."""
+    from tmopt.mismatch.diagnose import Settings, evaluate, fit_state, prepare
+    from tmopt.mismatch.fit import data_from_recording
+
+    tables = {p: [json.loads(x) for x in open(p)] for p in paths}
+    rows = sorted((r for t in tables.values() for r in t),
+                  key=lambda r: -max(x[2] for x in r["rows"]))  # fmt: skip
+    for r in rows[:top]:
+        if "n_tests" in r:
+            continue
+        kind = max(r["rows"], key=lambda x: x[2])[0]
+        rec = with_witnesses(_clean(r["seed"], r["backend"]), kind, r["seed"])
+        d, basis = prepare(data_from_recording(rec))
+        state = fit_state(d, basis, [], [], False, Settings())
+        r["n_tests"] = len(evaluate(d, basis, state, Settings(), set()))
+        print(f"{r['backend']} {r['seed']} ({kind}): {r['n_tests']} candidates", flush=True)
+    for p, t in tables.items():
+        Path(p).write_text("".join(json.dumps(r) + "\n" for r in t))
 
 
 def diagnose_rows(seed_base: int, n: int, out: Path) -> None:
@@ -271,6 +306,9 @@ def main(argv: list[str] | None = None) -> int:
         p.add_argument("--n", type=int, default=60 if name == "null" else 20)
         p.add_argument("--out", default=f"results/mismatch_witness_null/{name}.jsonl")
     sub.add_parser("summary").add_argument("paths", nargs="+")
+    p = sub.add_parser("sizes")
+    p.add_argument("paths", nargs="+")
+    p.add_argument("--top", type=int, default=10)
     sub.add_parser("case").add_argument("recordings", nargs="+")
     p = sub.add_parser("moving")
     p.add_argument("--rows", required=True, help="a finished run's realistic_rows.jsonl")
@@ -286,6 +324,8 @@ def main(argv: list[str] | None = None) -> int:
         (null if a.cmd == "null" else diagnose_rows)(a.seed_base, a.n, Path(a.out))
     elif a.cmd == "summary":
         summary(a.paths)
+    elif a.cmd == "sizes":
+        sizes(a.paths, a.top)
     elif a.cmd == "case":
         case(a.recordings)
     else:
