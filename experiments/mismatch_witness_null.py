@@ -85,23 +85,38 @@ def motion(time: np.ndarray, kind: str, seed: int) -> tuple[np.ndarray, np.ndarr
     return w, wd
 
 
+def nominal(rec):
+    """``(data, basis, state)``: ``rec`` prepared and its nominal fit, as the tool starts."""
+    from tmopt.mismatch.diagnose import Settings, fit_state, prepare
+    from tmopt.mismatch.fit import data_from_recording
+
+    d, basis = prepare(data_from_recording(rec))
+    return d, basis, fit_state(d, basis, [], [], False, Settings())
+
+
+def rotation_statistics(d, basis, state) -> tuple[float, float] | None:
+    """``(L, L_alt)`` of the rotation candidate against ``state`` (None: no witnesses)."""
+    from tmopt.mismatch.diagnose import residual_groups
+    from tmopt.mismatch.effects import Context
+    from tmopt.mismatch.effects.rotation_coupling import RotationCoupling
+    from tmopt.mismatch.joint import alt_glr
+
+    ctx = Context(d, basis, state.eq_fit.residual, state.eq_noise)
+    cands = RotationCoupling().candidates(ctx)
+    if not cands:
+        return None
+    cols = cands[0].columns
+    return residual_groups(d, state)["equation"].glr(cols), alt_glr(d, basis, state, cols)[0]
+
+
 def statistics_of(rec, seed: int) -> list[tuple[str, float, float]]:
     """``(motion, L, L_alt)`` of the rotation candidate at the nominal fit of ``rec``
     with each of :data:`MOTIONS` in its witnesses."""
-    from tmopt.mismatch.diagnose import Settings, fit_state, prepare, residual_groups
-    from tmopt.mismatch.effects import Context
-    from tmopt.mismatch.effects.rotation_coupling import RotationCoupling
-    from tmopt.mismatch.fit import data_from_recording
-    from tmopt.mismatch.joint import alt_glr
-
-    d, basis = prepare(data_from_recording(rec))
-    s = fit_state(d, basis, [], [], False, Settings())
-    group = residual_groups(d, s)["equation"]
+    d, basis, state = nominal(rec)
     out = []
     for kind in MOTIONS:
         d.omega, d.omega_dot = motion(d.time, kind, seed)
-        cand = RotationCoupling().candidates(Context(d, basis, s.eq_fit.residual, s.eq_noise))[0]
-        out.append((kind, group.glr(cand.columns), alt_glr(d, basis, s, cand.columns)[0]))
+        out.append((kind, *rotation_statistics(d, basis, state)))
     return out
 
 
@@ -127,7 +142,9 @@ def _done(out: Path) -> set:
         if out.exists() else set()  # fmt: skip
 
 
-def null(seed_base: int, n: int, out: Path) -> None:
+def per_recording(seed_base: int, n: int, out: Path, job) -> None:
+    """``job(backend, seed, i) -> row`` for seeds ``seed_base .. + n`` of both simulators,
+    each row streamed to ``out`` (JSON lines) and printed; resumable."""
     out.parent.mkdir(parents=True, exist_ok=True)
     done = _done(out)
     with out.open("a") as fh:
@@ -136,11 +153,15 @@ def null(seed_base: int, n: int, out: Path) -> None:
                 seed = seed_base + i
                 if (b, seed) in done:
                     continue
-                rows = statistics_of(_clean(seed, b), seed)
-                fh.write(json.dumps({"backend": b, "seed": seed, "rows": rows}) + "\n")
+                row = {"backend": b, "seed": seed, **job(b, seed, i)}
+                fh.write(json.dumps(row) + "\n")
                 fh.flush()
-                print(f"{b} {seed}: " + ", ".join(f"{k} L {lam:.1f} L_alt {a:.1f}"
-                                                  for k, lam, a in rows), flush=True)  # fmt: skip
+                print(json.dumps(row), flush=True)
+
+
+def null(seed_base: int, n: int, out: Path) -> None:
+    per_recording(seed_base, n, out,
+                  lambda b, seed, i: {"rows": statistics_of(_clean(seed, b), seed)})
 
 
 def summary(paths: list[str]) -> None:
@@ -186,8 +207,7 @@ def sizes(paths: list[str], top: int) -> None:
     """Adds ``n_tests`` -- the first step's catalogue size, the multiplicity its Holm
     correction uses -- to the rows of the ``top`` recordings with the largest ``L_alt``
     (their levels are the ones that decide the factor), rewriting each file."""
-    from tmopt.mismatch.diagnose import Settings, evaluate, fit_state, prepare
-    from tmopt.mismatch.fit import data_from_recording
+    from tmopt.mismatch.diagnose import Settings, evaluate
 
     tables = {p: [json.loads(x) for x in open(p)] for p in paths}
     rows = sorted((r for t in tables.values() for r in t),
@@ -196,9 +216,8 @@ def sizes(paths: list[str], top: int) -> None:
         if "n_tests" in r:
             continue
         kind = max(r["rows"], key=lambda x: x[2])[0]
-        rec = with_witnesses(_clean(r["seed"], r["backend"]), kind, r["seed"])
-        d, basis = prepare(data_from_recording(rec))
-        state = fit_state(d, basis, [], [], False, Settings())
+        d, basis, state = nominal(with_witnesses(_clean(r["seed"], r["backend"]), kind,
+                                                 r["seed"]))  # fmt: skip
         r["n_tests"] = len(evaluate(d, basis, state, Settings(), set()))
         print(f"{r['backend']} {r['seed']} ({kind}): {r['n_tests']} candidates", flush=True)
     for p, t in tables.items():
@@ -210,24 +229,15 @@ def diagnose_rows(seed_base: int, n: int, out: Path) -> None:
     from tmopt.mismatch.fit import data_from_recording
     from tmopt.mismatch.report import build_report
 
-    out.parent.mkdir(parents=True, exist_ok=True)
-    done = _done(out)
-    with out.open("a") as fh:
-        for i in range(n):
-            for b in ("kernel", "foreign"):
-                seed = seed_base + i
-                if (b, seed) in done:
-                    continue
-                kind = MOTIONS[i % len(MOTIONS)]
-                rep = build_report(diagnose(data_from_recording(
-                    with_witnesses(_clean(seed, b), kind, seed))))  # fmt: skip
-                row = {"backend": b, "seed": seed, "motion": kind,
-                       "alarm": bool(rep["mismatch_detected"]),
-                       "names": [f"{e['name']}[{e['channel']}]" for e in rep["effects"]],
-                       "unexplained": (rep.get("unexplained_at") or {}).get("channels", [])}
-                fh.write(json.dumps(row) + "\n")
-                fh.flush()
-                print(json.dumps(row), flush=True)
+    def job(b: str, seed: int, i: int) -> dict:
+        kind = MOTIONS[i % len(MOTIONS)]
+        rep = build_report(diagnose(data_from_recording(
+            with_witnesses(_clean(seed, b), kind, seed))))  # fmt: skip
+        return {"motion": kind, "alarm": bool(rep["mismatch_detected"]),
+                "names": [f"{e['name']}[{e['channel']}]" for e in rep["effects"]],
+                "unexplained": (rep.get("unexplained_at") or {}).get("channels", [])}
+
+    per_recording(seed_base, n, out, job)
     rows = [json.loads(x) for x in out.open()]
     alarms = [r for r in rows if r["alarm"]]
     rot = [r for r in rows if any(x.startswith("rotation") for x in r["names"])]
@@ -238,24 +248,11 @@ def diagnose_rows(seed_base: int, n: int, out: Path) -> None:
 def case(specs: list[str]) -> None:
     from mismatch_realistic import case_recording
 
-    from tmopt.mismatch.diagnose import Settings, fit_state, prepare, residual_groups
-    from tmopt.mismatch.effects import Context
-    from tmopt.mismatch.effects.rotation_coupling import RotationCoupling
-    from tmopt.mismatch.fit import data_from_recording
-    from tmopt.mismatch.joint import alt_glr
-
     for spec in specs:
         b, seed = spec.split(":")
-        rec, _ = case_recording(b, int(seed))
-        d, basis = prepare(data_from_recording(rec))
-        s = fit_state(d, basis, [], [], False, Settings())
-        cands = RotationCoupling().candidates(Context(d, basis, s.eq_fit.residual, s.eq_noise))
-        if not cands:
-            print(f"{spec}: no attitude witnesses")
-            continue
-        cols = cands[0].columns
-        print(f"{spec}: L {residual_groups(d, s)['equation'].glr(cols):.2f} "
-              f"L_alt {alt_glr(d, basis, s, cols)[0]:.2f}")  # fmt: skip
+        got = rotation_statistics(*nominal(case_recording(b, int(seed))[0]))
+        print(f"{spec}: " + ("no attitude witnesses" if got is None else
+                             f"L {got[0]:.2f} L_alt {got[1]:.2f}"))  # fmt: skip
 
 
 def moving(rows_path: str, categories: list[str], out: Path) -> None:
