@@ -63,8 +63,10 @@ def test_a_rotation_whose_evidence_the_nulls_noise_took_in_is_named():
 
 def test_on_a_clean_recording_nothing_is_lifted_and_drifts_are_never_rejudged():
     """The null side, candidate by candidate: on a clean recording every candidate of the
-    first step is weak; re-judged as if selected, the rotation (the "other" family, its
-    statistic deflated by the calibrated ``JOINT_INFLATION``) is not lifted, and a drift is
+    first step is weak; re-judged as if selected, the rotation (its own "witness" family
+    since stop 52, deflated by ``WITNESS_REFIT_INFLATION``; the witnesses of these clean
+    recordings are still, so its columns are empty -- the null with moving witnesses is
+    test_witness_refit's) is not lifted, and a drift is
     not re-judged at all (on 1/f^2 noise its statistic under the alternative takes the
     random walk's ramp: clean kernel 22045, docs 9.16)."""
     for backend, seed in (("kernel", 651), ("foreign", 652)):
