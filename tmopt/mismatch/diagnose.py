@@ -1263,20 +1263,21 @@ def rejudged(data: Data, basis: np.ndarray, selected: list, settings: Settings,
     *without* the candidate, and the smoothed spectrum's lowest bins (one or two degrees
     of freedom per decade) take in a slow signature's power: a rotation coupling's slew
     reaches GLR 23-30 whatever its size (development seeds 651-656 at SNR 25: 23-30 under
-    the null's model, 200-1170 under the alternative's; docs/mismatch.md 9.16).  The
-    re-test is :func:`tmopt.mismatch.joint.retest` given every other selected effect: the
-    statistic with the spectrum re-estimated from the residual of the fit *with* the
-    candidate, deflated by its family's null inflation on clean flight-like recordings
-    (``cal.JOINT_INFLATION``), Bonferroni over the ``n_tests`` catalogue candidates; the
-    name stands when that is significant at ``settings.alpha`` and its BIC gain reaches
-    ``AMBIGUOUS_DBIC``.  Only weak names are re-judged: the selection itself, and every
-    other rule, are unchanged.  Not the drifts (``joint.family`` "drift"): on 1/f^2
-    acceleration noise a drift column fitted under the alternative takes the random walk's
-    "ramp" and lowers the spectrum under it -- on the clean calibration recording kernel
-    22045 a weak bias drift (delta BIC 5.6) went to 91 raw, 28 after the family's 3.25, a
-    confident wrong name; no weak "other" name of the 400 clean calibration recordings
-    (22000-22199, both simulators) changes.  Each re-test is kept in ``data.usage["rejudged"]`` and
-    one that lifts a name is said in the notes."""
+    the null's model, 200-1170 under the alternative's; docs/mismatch.md 9.16).  The re-test
+    is :func:`tmopt.mismatch.joint.retest` given every other selected effect: the statistic
+    with the spectrum re-estimated from the residual of the fit *with* the candidate,
+    deflated by its family's null inflation on clean flight-like recordings
+    (``joint.INFLATION``: ``cal.JOINT_INFLATION``, and for a rotation -- the witness family
+    since stop 52 -- ``cal.WITNESS_REFIT_INFLATION``), Bonferroni over the ``n_tests``
+    catalogue candidates; the name stands when that is significant at ``settings.alpha`` and
+    its BIC gain reaches ``AMBIGUOUS_DBIC``.  Only weak names are re-judged: the selection
+    itself, and every other rule, are unchanged.  Not the drifts (``joint.family`` "drift"):
+    on 1/f^2 acceleration noise a drift column fitted under the alternative takes the random
+    walk's "ramp" and lowers the spectrum under it -- on the clean calibration recording
+    kernel 22045 a weak bias drift (delta BIC 5.6) went to 91 raw, 28 after the family's
+    3.25, a confident wrong name; no weak "other" name of the 400 clean calibration
+    recordings (22000-22199, both simulators) changes.  Each re-test is kept in
+    ``data.usage["rejudged"]`` and one that lifts a name is said in the notes."""
     if not settings.rejudge:
         return set()
     from tmopt.mismatch import joint
