@@ -177,3 +177,26 @@ def test_no_debias_round_is_the_estimate_as_read(monkeypatch):
     off, zero = (NoiseModel.estimate(y[None], layout, 1.0, coupled=False, debias=k).matrix(f)
                  for k in ("off", "offset"))  # fmt: skip
     np.testing.assert_array_equal(zero, off)
+
+
+def test_the_spline_fit_survives_a_spectrum_hundreds_of_decades_wide():
+    """The nonsense sweep's sign-flipped force (foreign base) diverged a GLS fit into a
+    residual whose periodogram spanned 1e-27 .. 1e252; the Newton step's Hessian was then
+    singular and the tool raised.  The fit is now found in units of the median bin, with
+    Fisher scoring where the observed Hessian is singular; on an ordinary periodogram it is
+    the plain Newton fit, and it is scale-equivariant (a level is a constant added to
+    every coefficient)."""
+    from tmopt.mismatch.noise_model import _design, _knots, _whittle_spline
+
+    rng = np.random.default_rng(3)
+    f = np.fft.rfftfreq(2400, 0.5)[1:]
+    knots = _knots(f)
+    wild = np.exp(np.where(f < 3e-3, 580.0, -55.0) + 10 * np.log(f / f[0]) * (f < 3e-3))
+    beta = _whittle_spline(f, wild * rng.exponential(size=f.size), knots)
+    assert np.isfinite(beta).all()
+    fit = _design(np.log(f), knots) @ beta
+    high = f > 0.05  # the flat part, far from the jump: its level is found
+    assert abs(np.median(fit[high]) - (-55.0)) < 1.0
+    plain = (1 + (3e-3 / f) ** 2) * rng.exponential(size=f.size)
+    a, b = _whittle_spline(f, plain, knots), _whittle_spline(f, 1e200 * plain, knots)
+    np.testing.assert_allclose(b - a, np.log(1e200), rtol=1e-9)

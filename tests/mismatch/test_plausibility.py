@@ -353,3 +353,12 @@ def test_a_record_cut_into_short_pieces_is_flagged_not_refused(monkeypatch):
     assert rep["status"] == "diagnosed", rep.get("reason")
     assert [c["status"] for c in rep["checks"] if c["name"] == "fragmentation"] == ["unknown"]
     assert any(n.startswith("caution: the record is cut into") for n in rep["notes"])
+
+
+def test_a_sign_flipped_force_on_the_foreign_base_is_refused_not_raised(bases):
+    """The full sweep's one traceback (stop 52: LinAlgError in the noise model's spline
+    fit, see test_noise_model's wide-spectrum test): a refusal now, naming the parameter
+    beyond its physical range."""
+    rec = bases[2]
+    got, detail = outcome(_with(rec, {"force_x1": -rec["force_x1"]}))
+    assert got == "refused" and "beyond its physical range" in detail, detail

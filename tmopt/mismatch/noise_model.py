@@ -614,24 +614,47 @@ def _whittle_spline(f: np.ndarray, i: np.ndarray, knots: np.ndarray) -> np.ndarr
     likelihood ``-sum(log S + I/S) - ROUGHNESS |D2 beta|^2`` (concave; Newton), bins above
     OUTLIER x the fit dropped and the fit repeated."""
     b = _design(np.log(f), knots)
+    log_i = np.log(np.maximum(i, 1e-300))
+    # in units of the median bin: the B-splines sum to one, so a level is a constant added
+    # to every coefficient, and a residual many decades off (a fit of nonsense data whose
+    # GLS diverged reached 1e251) neither overflows the ratio nor leaves a singular Hessian
+    level = float(np.median(log_i))
+    log_i = log_i - level
     keep = np.ones(f.size, bool)
     # start: least squares on log(I) + Euler's gamma (E log of an Exp(1) is -0.5772)
-    beta, *_ = np.linalg.lstsq(b, np.log(np.maximum(i, 1e-300)) + 0.5772156649, rcond=None)
+    beta, *_ = np.linalg.lstsq(b, log_i + 0.5772156649, rcond=None)
     k = b.shape[1]
     d2 = np.diff(np.eye(k), 2, axis=0)
     pen = ROUGHNESS * d2.T @ d2 + 1e-8 * np.eye(k)
     for _ in range(2):
-        bk, ik = b[keep], i[keep]
+        bk, lk = b[keep], log_i[keep]
         for _ in range(30):
-            ratio = ik * np.exp(-(bk @ beta))
+            # I/S; far beyond an Exp(1) draw only on a start many decades off
+            ratio = np.exp(np.minimum(lk - bk @ beta, RATIO_LOG_MAX))
             grad = bk.T @ (ratio - 1.0) - 2 * pen @ beta
-            hess = (bk * ratio[:, None]).T @ bk + 2 * pen
-            step = np.linalg.solve(hess, grad)
+            step = _newton_step(bk, ratio, grad, pen)
             beta = beta + np.clip(step, -5, 5)
             if float(np.max(np.abs(step))) < 1e-6:
                 break
-        keep = i < OUTLIER * np.exp(b @ beta)
-    return beta
+        keep = log_i < np.log(OUTLIER) + b @ beta
+    return beta + level
+
+
+def _newton_step(b: np.ndarray, ratio: np.ndarray, grad: np.ndarray,
+                 pen: np.ndarray) -> np.ndarray:
+    """Newton's step for :func:`_whittle_spline`, or Fisher scoring's (the expected
+    Hessian, ``B'B``: each ratio's mean is one) where the observed Hessian is numerically
+    singular -- ratios of 1e-12 and 5e21 in one start, a residual 640 e-folds wide."""
+    hess = (b * ratio[:, None]).T @ b + 2 * pen
+    if np.linalg.cond(hess) < 1e12:
+        return np.linalg.solve(hess, grad)
+    return np.linalg.solve(b.T @ b + 2 * pen, grad)
+
+
+#: Largest log of a bin's ratio I/S in the Newton iteration of :func:`_whittle_spline`
+#: (e^50: an Exp(1) draw beyond it has probability e^-5e21; only the first steps of a
+#: start many decades off reach it, where it bounds the Hessian's entries).
+RATIO_LOG_MAX = 50.0
 
 
 #: Transient gating: windows of this length [s] (at least 8 samples) whose whitened power
