@@ -149,6 +149,12 @@ def test_every_generated_bad_configuration_is_refused_in_one_line_naming_it(monk
     _refuse_all(SAMPLE, monkeypatch)
 
 
+def test_a_wrapped_problem_names_its_own_base_parameter(monkeypatch):
+    """The full generator's one miss at stop 52: ``problem=faulty problem.base=<unknown>``
+    was refused naming the *suite's* problem, not the parameter ``base``."""
+    _refuse_all([(["problem=faulty", "problem.base=no_such_choice"], "base")], monkeypatch)
+
+
 @pytest.mark.slow
 def test_every_bad_configuration_of_every_parameter_is_refused(monkeypatch):
     _refuse_all(CASES, monkeypatch)

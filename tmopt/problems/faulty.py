@@ -15,7 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from tmopt.problems.base import ExpensiveProblem
-from tmopt.problems.suites import PymooBenchmark
+from tmopt.problems.suites import SUITE_PROBLEMS, PymooBenchmark
 
 
 class FaultyProblem(ExpensiveProblem):
@@ -38,6 +38,9 @@ class FaultyProblem(ExpensiveProblem):
                  hang_band: Sequence[float] | None = None,
                  hang_seconds: float = 3600.0, batch_delay: float = 0.0,
                  name: str = "faulty") -> None:
+        if str(base).lower() not in SUITE_PROBLEMS:  # named as this problem's parameter
+            raise ValueError(f"problem {name}: base={base!r} is not a suite problem with an "
+                             f"offline front; choose one of: {', '.join(SUITE_PROBLEMS)}")
         self.base = PymooBenchmark(base, n_var=n_var)
         self.bands = {kind: _band(name, f"{kind}_band", band) for kind, band in
                       (("raise", raise_band), ("nan", nan_band), ("hang", hang_band))}
