@@ -54,6 +54,11 @@ def _parser() -> argparse.ArgumentParser:
                         "estimated with every kinematic column fitted (off by default: its "
                         "null is heavy-tailed where the tones sit in the record's lowest "
                         "bins; docs/mismatch.md 9.24)")  # fmt: skip
+    p.add_argument("--kin-profile", action="store_true",
+                   help="read the kinematic group's candidates by their profile likelihood "
+                        "ratio, the noise model estimated again under each (off by "
+                        "default until a never-seen draw has scored it; docs/mismatch.md "
+                        "9.29)")  # fmt: skip
     p.add_argument("--no-witness-refit", action="store_true",
                    help="read a witness-driven candidate (rotation coupling) under the "
                         "null's noise model only, not also under the alternative's (on by "
@@ -94,6 +99,7 @@ def main(argv: list[str] | None = None) -> int:
                         pairs=not args.no_pairs,
                         true_position=not args.no_true_position,
                         rails=args.rails, kin_refit=args.kin_refit,
+                        kin_profile=args.kin_profile,
                         witness_refit=not args.no_witness_refit)  # fmt: skip
     dg = diagnose(data_from_recording(rec), settings)
     rep = write_report(dg, args.out, plots=not args.no_plots)

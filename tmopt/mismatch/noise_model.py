@@ -442,6 +442,31 @@ class NoiseModel:
                 out[a:b] = taper(b - a, self.taper_fraction) ** 2
         return out
 
+    def whittle_loglik(self, residual: np.ndarray) -> float:
+        """Whittle's log-likelihood of a residual (C, M) under this smoothed model, on the
+        pooled tapered periodogram the model is fitted to (:func:`_pooled_periodograms`,
+        no gate), channel by channel: ``-sum_k (log S(f_k) + I_k / S(f_k))`` (Whittle,
+        J. R. Stat. Soc. B 19, 38 (1957); the form :func:`_whittle_spline` maximises,
+        without its roughness penalty).  Only the diagonal of a coupled model is read.
+        Adjacent bins of a tapered piece are correlated, so a difference of two of these
+        over-counts by :meth:`taper_inflation`."""
+        if self.kind != "smoothed":
+            raise ValueError(f"whittle_loglik needs a smoothed model; this one is {self.kind!r}")
+        f, xf, _ = _pooled_periodograms(residual, self.layout, self.fs, self.taper_fraction)
+        log_s = (_design(np.log(f), self.knots) @ self.coefs.T).T  # (C, F)
+        return float(-np.sum(log_s + np.abs(xf) ** 2 / np.exp(log_s)))
+
+    def taper_inflation(self) -> float:
+        """``mean(w^4) / mean(w^2)^2`` over the layout's tapered pieces (Hann: 35/18 =
+        1.944; untapered: 1): by this factor a sum over the pooled periodogram's bins
+        counts a quadratic form of the tapered series as more independent terms than it
+        holds (the Satterthwaite factor of a weighted sum of squares)."""
+        w = [taper(b - a, self.taper_fraction) for a, b in self.layout.bounds if b - a >= 16]
+        if not w:
+            return 1.0
+        w = np.concatenate(w)
+        return float(np.mean(w**4) / np.mean(w**2) ** 2)
+
     def whiten_template(self, arr: np.ndarray, nfft: int) -> np.ndarray:
         """Stationary whitening of a short template (C, M) without taper, on a zero-padded
         grid of ``nfft`` points: the whitening filter applied to a signal away from the

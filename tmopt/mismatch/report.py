@@ -324,6 +324,7 @@ def _settings(dg: Diagnosis) -> dict:
             "shape_placements": dg.settings.shape_placements,
             "pairs": dg.settings.pairs, "true_position": dg.settings.true_position,
             "rails": dg.settings.rails, "kin_refit": dg.settings.kin_refit,
+            "kin_profile": dg.settings.kin_profile,
             "witness_refit": dg.settings.witness_refit}  # fmt: skip
 
 
