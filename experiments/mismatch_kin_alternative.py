@@ -1,5 +1,6 @@
 """The kinematic group's statistic under the alternative's noise model (docs/mismatch.md
-9.24; :func:`tmopt.mismatch.diagnose._kin_alternative_group`).
+9.24; :func:`tmopt.mismatch.diagnose._kin_alternative_group`) and by its profile
+likelihood ratio (9.29; :func:`tmopt.mismatch.diagnose._kin_profile`).
 
     python experiments/mismatch_kin_alternative.py null --seed-base 37060 --n 60 \
         --out results/mismatch_kin_alternative/null.jsonl
@@ -7,18 +8,22 @@
         results/mismatch_kin_alternative/null.jsonl
     python experiments/mismatch_kin_alternative.py case kernel:220066 foreign:220064 ...
     python experiments/mismatch_kin_alternative.py cost kernel:220000 foreign:220001
+    python experiments/mismatch_kin_alternative.py cost --option kin_profile kernel:220000
 
 * ``null`` -- clean flight-like recordings of both simulators (calibration seeds < 40000),
-  the nominal fit: every kinematic candidate's statistic ``L`` under the null's noise model
-  and ``L_alt`` under the alternative's (one row per recording, JSON lines, resumable);
+  the nominal fit: every kinematic candidate's statistic ``L`` under the null's noise model,
+  ``L_alt`` under the alternative's and its profile ratio ``L_prof`` (computed for every
+  testable candidate, past the selection's screen; one row per recording, JSON lines,
+  resumable);
 * ``summary`` -- from those rows: the ratio ``L_alt / L``, the largest ``L_alt``, the tail
   counts of ``max(L, L_alt / c)`` above chi^2's points against the null's own, and the
   ``c`` at which no candidate reaches the selection's level (:data:`LEVEL`) -- the rule of
-  ``calibration.KIN_REFIT_INFLATION``;
+  ``calibration.KIN_REFIT_INFLATION``; and ``L_prof``'s mean, tail counts and largest;
 * ``case`` -- a benchmark recording (``backend:seed``): its three kinematic candidates
   with the largest ``L_alt``, both statistics;
-* ``cost`` -- a whole diagnosis with and without the alternative (``Settings.kin_refit``),
-  alternated three times in one process: the median ratio.
+* ``cost`` -- a whole diagnosis with and without an option (``--option``: ``kin_refit``,
+  the default, or ``kin_profile``), alternated three times in one process: the median
+  ratio.
 """
 
 from __future__ import annotations
@@ -46,12 +51,14 @@ def _level() -> float:
     return float(stats.chi2.isf(cal.FAMILY_ALPHA / CATALOGUE_SIZE, 1))
 
 
-def statistics_of(rec) -> list[tuple[str, int, float, float | None]]:
-    """``(key, dof, L, L_alt)`` of every kinematic candidate of the recording's nominal fit."""
+def statistics_of(rec) -> list[tuple[str, int, float, float | None, float | None]]:
+    """``(key, dof, L, L_alt, L_prof)`` of every kinematic candidate of the recording's
+    nominal fit (``L_prof`` None for a candidate without an instrument)."""
     from tmopt.mismatch.diagnose import (
         Settings,
         _kin_alternative_group,
         _kin_candidates,
+        _kin_profile,
         fit_state,
         prepare,
         residual_groups,
@@ -59,13 +66,19 @@ def statistics_of(rec) -> list[tuple[str, int, float, float | None]]:
     from tmopt.mismatch.fit import data_from_recording
 
     d, basis = prepare(data_from_recording(rec))
-    st = Settings(kin_refit=True)
+    st = Settings(kin_refit=True, kin_profile=True)
     s = fit_state(d, basis, [], [], False, st)
     cands = _kin_candidates(d, basis, s, st)
     g = residual_groups(d, s)["kinematic"]
     alt = _kin_alternative_group(d, s, cands, st)
-    return [(c.key, len(c.columns), g.glr(c.columns), alt.glr(c.columns) if alt else None)
-            for c in cands]  # fmt: skip
+    profile = _kin_profile(d, s, cands, st)
+
+    def prof(c):  # an infinite L passes the screen: the ratio itself
+        testable = all(col.instrument is None or np.any(col.instrument) for col in c.columns)
+        return profile(c.columns, float("inf")) if testable else None
+
+    return [(c.key, len(c.columns), g.glr(c.columns), alt.glr(c.columns) if alt else None,
+             prof(c)) for c in cands]  # fmt: skip
 
 
 def null(seed_base: int, n: int, out: Path) -> None:
@@ -113,6 +126,24 @@ def summary(paths: list[str]) -> None:
     need = float(alt.max() / level) if alt.size else 1.0
     print(f"selection level {level:.2f}: the smallest c at which no candidate reaches it: "
           f"{max(need, 1.0):.3f}")  # fmt: skip
+    _profile_summary([x for x in c_rows if len(x) > 6 and x[6] is not None], level)
+
+
+def _profile_summary(rows: list, level: float) -> None:
+    """``L_prof`` (rows written since stop 53): mean per dof, tail counts, the largest."""
+    if not rows:
+        return
+    dof = np.array([x[3] for x in rows])
+    prof = np.array([x[6] for x in rows])
+    print(f"profile ratio, {len(rows)} candidates: mean / dof {np.mean(prof / dof):.3f}")
+    for q in (0.05, 0.01, 0.001):
+        print(f"  q {q}: expected {len(rows) * q:.1f}, L_prof "
+              f"{int(np.sum(prof > stats.chi2.isf(q, dof)))}")  # fmt: skip
+    order = np.argsort(-prof)[:3]
+    print("largest L_prof: " + "; ".join(f"{rows[i][0]} {rows[i][1]} {rows[i][2]} "
+                                         f"L {rows[i][4]:.2f} L_alt {rows[i][5] or 0:.2f} "
+                                         f"L_prof {prof[i]:.2f}" for i in order)
+          + f" (the selection's level {level:.2f})")  # fmt: skip
 
 
 def case(specs: list[str]) -> None:
@@ -122,11 +153,11 @@ def case(specs: list[str]) -> None:
         b, seed = spec.split(":")
         rec, _ = case_recording(b, int(seed))
         rows = sorted(statistics_of(rec), key=lambda x: -(x[3] or 0.0))[:3]
-        print(spec + ": " + "; ".join(f"{k} L {lam:.2f} L_alt {a or 0:.2f}"
-                                      for k, _, lam, a in rows))  # fmt: skip
+        print(spec + ": " + "; ".join(f"{k} L {lam:.2f} L_alt {a or 0:.2f} L_prof {p or 0:.2f}"
+                                      for k, _, lam, a, p in rows))  # fmt: skip
 
 
-def cost(specs: list[str]) -> None:
+def cost(specs: list[str], option: str = "kin_refit") -> None:
     from mismatch_realistic import case_recording
 
     from tmopt.mismatch.diagnose import Settings, diagnose
@@ -140,10 +171,10 @@ def cost(specs: list[str]) -> None:
             t = {}
             for on in (False, True):
                 t0 = time.perf_counter()
-                diagnose(data_from_recording(rec), Settings(kin_refit=on))
+                diagnose(data_from_recording(rec), Settings(**{option: on}))
                 t[on] = time.perf_counter() - t0
             ratios.append(t[True] / t[False])
-        print(f"{spec}: diagnosis with / without the alternative {statistics.median(ratios):.2f}x "
+        print(f"{spec}: diagnosis with / without {option} {statistics.median(ratios):.2f}x "
               f"({', '.join(f'{x:.2f}' for x in ratios)})")  # fmt: skip
 
 
@@ -156,7 +187,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", default="results/mismatch_kin_alternative/null.jsonl")
     sub.add_parser("summary").add_argument("paths", nargs="+")
     sub.add_parser("case").add_argument("recordings", nargs="+")
-    sub.add_parser("cost").add_argument("recordings", nargs="+")
+    p = sub.add_parser("cost")
+    p.add_argument("--option", choices=("kin_refit", "kin_profile"), default="kin_refit")
+    p.add_argument("recordings", nargs="+")
     a = ap.parse_args(argv)
     if a.cmd == "null":
         if a.n < 1 or not 0 <= a.seed_base < 40000:
@@ -169,7 +202,7 @@ def main(argv: list[str] | None = None) -> int:
     elif a.cmd == "case":
         case(a.recordings)
     else:
-        cost(a.recordings)
+        cost(a.recordings, a.option)
     return 0
 
 

@@ -144,7 +144,7 @@ class Settings:
     # the kinematic noise model estimated again under it, each fit scored by its Whittle
     # likelihood (:func:`_kin_profile`, docs 9.29): what a readout scale takes into the
     # null's spectrum counts, without kin_refit's heavy-tailed shared alternative
-    # (foreign 270064: GLR 8.4, profile 70, the limit's 18.1^2 = 328).  Off until a
+    # (foreign 270064: GLR 8.4, profile 79.8, the limit's 18.1^2 = 328).  Off until a
     # never-seen draw has scored it
     kin_profile: bool = False
     # also read a witness-driven candidate (its columns from the attitude witnesses, not
@@ -720,7 +720,8 @@ def _kin_profile(data: Data, state: State, cands: list[Candidate], settings: Set
     """``(columns, L) -> statistic`` for a kinematic candidate, or None when
     ``settings.kin_profile`` is off: the profile likelihood ratio of adding its columns,
     the noise model estimated again under each model (Whittle's likelihood of each fit's
-    residual under its own model, :meth:`NoiseModel.whittle_loglik`), divided by the
+    residual under its own model less the spline's roughness penalty,
+    :meth:`NoiseModel.whittle_loglik`), divided by the
     taper's over-count (:meth:`NoiseModel.taper_inflation`, Hann: 1.944).
 
     Why: the GLR ``L`` reads a candidate under the null's noise model, and a readout scale
@@ -728,8 +729,9 @@ def _kin_profile(data: Data, state: State, cands: list[Candidate], settings: Set
     and whitened away with it (docs 9.24); ``L_alt`` (``kin_refit``) reads every
     candidate under one model with all kinematic columns fitted, which also empties
     those bins under no effect (clean foreign 37117: 114.8).  The profile ratio charges
-    each model for its own spectrum.  On 80 clean flight-like recordings (1,400
-    candidates) it follows chi^2_1 (mean 0.97; docs 9.29).  One kinematic fit per
+    each model for its own spectrum.  On 60 clean flight-like recordings (1,052
+    candidates) it follows chi^2_1 (mean 0.99; the largest 11.7, 37117's; docs 9.29).
+    One kinematic fit per
     candidate: only where ``L`` or ``L_alt`` (one shared fit per state) reaches
     :data:`KIN_PROFILE_SCREEN` -- below it neither model lets the candidate take much
     out of the residual -- otherwise ``L`` itself."""
