@@ -122,9 +122,9 @@ def test_the_statistic_is_the_profile_ratio_computed_a_second_way(dominated):
 def test_pure_noise_in_the_lowest_bins_reads_close_to_chi2_1():
     """Blue noise (the kinematic group's), a column of 2.5 cycles per record -- the worst
     place, where the spectrum rests on a handful of bins -- and no effect: the profile
-    ratio over the taper's factor has a mean near one (without the factor ~2.5; docs 9.29
-    measured 1.29 on 150 draws of 4000 samples without the penalty, and 0.99 on 1,052
-    candidates of 60 clean flight-like recordings)."""
+    ratio over the taper's factor has a mean near one (docs 9.29 measured 1.19 on 150
+    draws of 4000 samples, and 0.99 on 1,052 candidates of 60 clean flight-like
+    recordings)."""
     fs, m = 2.0, 2000
     lay = Layout.whole(m)
     t = np.arange(m) / fs

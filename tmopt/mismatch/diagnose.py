@@ -730,7 +730,8 @@ def _kin_profile(data: Data, state: State, cands: list[Candidate], settings: Set
     candidate under one model with all kinematic columns fitted, which also empties
     those bins under no effect (clean foreign 37117: 114.8).  The profile ratio charges
     each model for its own spectrum.  On 60 clean flight-like recordings (1,052
-    candidates) it follows chi^2_1 (mean 0.99; the largest 11.7, 37117's; docs 9.29).
+    candidates) it follows chi^2_1 (mean 0.99; the largest 11.7, below the selection's
+    level 15.9, with 37117's at 11.7 where ``L_alt`` reached 114.8; docs 9.29).
     One kinematic fit per
     candidate: only where ``L`` or ``L_alt`` (one shared fit per state) reaches
     :data:`KIN_PROFILE_SCREEN` -- below it neither model lets the candidate take much
