@@ -755,8 +755,9 @@ def _kin_profile(data: Data, state: State, cands: list[Candidate], settings: Set
 
 #: A kinematic candidate's profile ratio (:func:`_kin_profile`) is computed only where its
 #: GLR under the null's or the shared alternative's noise model reaches this (chi^2_1's
-#: 95 % point): ~10 % of candidates on clean recordings, every distinct readout scale
-#: the read draws missed (GLR >= 7 under one of them).
+#: 95 % point): 74 of 1,052 candidates on 60 clean recordings (7 %; the largest ratio it
+#: leaves out there is 4.1), and every distinct readout scale the read draws missed (GLR
+#: >= 7 under one of them).
 KIN_PROFILE_SCREEN = 3.84
 
 
