@@ -12,8 +12,6 @@ periodogram (Hann: 35/18).  Development seeds (< 20000).  Off by default
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 import pytest
 from scipy.interpolate import BSpline
@@ -34,16 +32,10 @@ from tmopt.mismatch.diagnose import (
 from tmopt.mismatch.effects import Injection
 from tmopt.mismatch.fit import Column, data_from_recording
 from tmopt.mismatch.noise_model import ROUGHNESS, Layout, taper
-from tmopt.mismatch.realistic import draw_scenario, realistic_recording
 
-SEED = 16004  # kernel: x1 and x2 excited; a 1500 s record
+from .test_kinematic_alternative import SEED, _recording  # the same record as kin_refit's
+
 ON = Settings(kin_profile=True)
-
-
-def _recording(seed: int, backend: str, effects=()):
-    sc = draw_scenario(seed, backend)
-    sc = replace(sc, duration=min(sc.duration, 1500.0))
-    return realistic_recording(sc, list(effects), (), seed, backend)[0]
 
 
 @pytest.fixture(scope="module")
