@@ -721,8 +721,8 @@ def _kin_profile(data: Data, state: State, cands: list[Candidate], settings: Set
     ``settings.kin_profile`` is off: the profile likelihood ratio of adding its columns,
     the noise model estimated again under each model (Whittle's likelihood of each fit's
     residual under its own model less the spline's roughness penalty,
-    :meth:`NoiseModel.whittle_loglik`), divided by the
-    taper's over-count (:meth:`NoiseModel.taper_inflation`, Hann: 1.944).
+    :meth:`NoiseModel.whittle_loglik`), divided by the taper's over-count
+    (:meth:`NoiseModel.taper_inflation`, Hann: 1.944).
 
     Why: the GLR ``L`` reads a candidate under the null's noise model, and a readout scale
     that dominates the lowest bins of the residual's pieces is taken into that spectrum
@@ -731,11 +731,10 @@ def _kin_profile(data: Data, state: State, cands: list[Candidate], settings: Set
     those bins under no effect (clean foreign 37117: 114.8).  The profile ratio charges
     each model for its own spectrum.  On 60 clean flight-like recordings (1,052
     candidates) it follows chi^2_1 (mean 0.99; the largest 11.7, below the selection's
-    level 15.9, with 37117's at 11.7 where ``L_alt`` reached 114.8; docs 9.29).
-    One kinematic fit per
-    candidate: only where ``L`` or ``L_alt`` (one shared fit per state) reaches
-    :data:`KIN_PROFILE_SCREEN` -- below it neither model lets the candidate take much
-    out of the residual -- otherwise ``L`` itself."""
+    level 15.9, with 37117's at 11.7 where ``L_alt`` reached 114.8; docs 9.29).  One
+    kinematic fit per candidate: only where ``L`` or ``L_alt`` (one shared fit per state)
+    reaches :data:`KIN_PROFILE_SCREEN` -- below it neither model lets the candidate take
+    much out of the residual -- otherwise ``L`` itself."""
     if not settings.kin_profile:
         return None
     alt = _kin_all_columns_group(data, state, cands)
