@@ -56,9 +56,8 @@ def statistics_of(rec) -> list[tuple[str, int, float, float | None, float | None
     nominal fit (``L_prof`` None for a candidate without an instrument)."""
     from tmopt.mismatch.diagnose import (
         Settings,
-        _kin_alternative_group,
         _kin_candidates,
-        _kin_profile,
+        _kin_groups,
         fit_state,
         prepare,
         residual_groups,
@@ -70,8 +69,8 @@ def statistics_of(rec) -> list[tuple[str, int, float, float | None, float | None
     s = fit_state(d, basis, [], [], False, st)
     cands = _kin_candidates(d, basis, s, st)
     g = residual_groups(d, s)["kinematic"]
-    alt = _kin_alternative_group(d, s, cands, st)
-    profile = _kin_profile(d, s, cands, st)
+    shared = _kin_groups(d, s, cands, st)  # one fit with every kinematic column: both
+    alt, profile = shared["kinematic_alt"], shared["kinematic_profile"]
 
     def prof(c):  # an infinite L passes the screen: the ratio itself
         testable = all(col.instrument is None or np.any(col.instrument) for col in c.columns)

@@ -21,7 +21,7 @@ from tmopt.mismatch.diagnose import (
     _fit_kin,
     _given,
     _kin_candidates,
-    _kin_profile,
+    _kin_groups,
     _tests,
     diagnose,
     effect_parameters,
@@ -98,7 +98,7 @@ def test_the_statistic_is_the_profile_ratio_computed_a_second_way(dominated):
     d, basis = dg.data, dg.basis
     st = fit_state(d, basis, [], [], False, ON)
     [cand] = [c for c in _kin_candidates(d, basis, st, ON) if c.key == "readout_scale[disp:x2]"]
-    read = _kin_profile(d, st, [cand], ON)
+    read = _kin_groups(d, st, [cand], ON)["kinematic_profile"]
     got = read(cand.columns, 1e9)  # above the screen: the ratio is computed
     fit1, noise1 = _fit_kin(st.kinematic_target(d), st.kin_cols + cand.columns,
                             d.kin_layout, d.fs)  # fmt: skip

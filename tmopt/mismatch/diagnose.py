@@ -651,8 +651,7 @@ def _tests(data: Data, basis: np.ndarray, state: State, settings: Settings,
     named = [c for effect in CATALOGUE for c in effect.candidates(ctx) if c.key not in exclude]
     unnamed = generic.candidates(ctx) if settings.generic else []
     groups = residual_groups(data, state)
-    groups["kinematic_alt"] = _kin_alternative_group(data, state, named + unnamed, settings)
-    groups["kinematic_profile"] = _kin_profile(data, state, named + unnamed, settings)
+    groups.update(_kin_groups(data, state, named + unnamed, settings))
     groups["witness_alt"] = _witness_alternative(data, basis, state, settings)
     out = []
     for cand in named:
@@ -716,7 +715,18 @@ def _kin_all_columns_group(data: Data, state: State, cands: list[Candidate]) -> 
                     data.kin_layout)  # fmt: skip
 
 
-def _kin_profile(data: Data, state: State, cands: list[Candidate], settings: Settings):
+def _kin_groups(data: Data, state: State, cands: list[Candidate],
+                settings: Settings) -> dict:  # fmt: skip
+    """``groups["kinematic_alt"]`` (``Settings.kin_refit``) and
+    ``groups["kinematic_profile"]`` (``Settings.kin_profile``) for ``state``, None where
+    off: one fit with every testable kinematic column of ``cands`` serves both."""
+    shared = _kin_all_columns_group(data, state, cands) \
+        if settings.kin_refit or settings.kin_profile else None  # fmt: skip
+    return {"kinematic_alt": shared if settings.kin_refit else None,
+            "kinematic_profile": _kin_profile(data, state, shared, settings)}
+
+
+def _kin_profile(data: Data, state: State, alt: _IVGroup | None, settings: Settings):
     """``(columns, L) -> statistic`` for a kinematic candidate, or None when
     ``settings.kin_profile`` is off: the profile likelihood ratio of adding its columns,
     the noise model estimated again under each model (Whittle's likelihood of each fit's
@@ -734,10 +744,10 @@ def _kin_profile(data: Data, state: State, cands: list[Candidate], settings: Set
     level 15.9, with 37117's at 11.7 where ``L_alt`` reached 114.8; docs 9.29).  One
     kinematic fit per candidate: only where ``L`` or ``L_alt`` (one shared fit per state)
     reaches :data:`KIN_PROFILE_SCREEN` -- below it neither model lets the candidate take
-    much out of the residual -- otherwise ``L`` itself."""
+    much out of the residual -- otherwise ``L`` itself.  ``alt``: the shared alternative
+    (:func:`_kin_all_columns_group`)."""
     if not settings.kin_profile:
         return None
-    alt = _kin_all_columns_group(data, state, cands)
     target = state.kinematic_target(data)
     noise0 = state.kin_noise
     ll0 = noise0.whittle_loglik(state.kin_fit.residual)
@@ -1027,8 +1037,7 @@ def _given(data, basis, chosen: list[Evaluation], i: int, settings: Settings,
         if cand.group == "kinematic" and (settings.kin_refit or settings.kin_profile):
             kin = _kin_candidates(data, basis, st, settings)
             kin += [cand] if cand.key not in {c.key for c in kin} else []
-            groups["kinematic_alt"] = _kin_alternative_group(data, st, kin, settings)
-            groups["kinematic_profile"] = _kin_profile(data, st, kin, settings)
+            groups.update(_kin_groups(data, st, kin, settings))
         groups["witness_alt"] = _witness_alternative(data, basis, st, settings)
         g = groups[cand.group]
         lam = _statistic(cand, groups)
