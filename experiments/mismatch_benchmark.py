@@ -243,6 +243,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--scaler-version", type=int, default=None, choices=(1, 2),
                    help="with --realistic: the SNR scaler's version (default: the current, 2; "
                         "1 remakes the sets read before stop 39; a run keeps its own)")
+    p.add_argument("--setting", action="append", default=None, metavar="NAME=VALUE",
+                   help="with --realistic: diagnose with this tool setting (a field of "
+                        "tmopt.mismatch.diagnose.Settings, e.g. kin_profile=true; "
+                        "repeatable); kept with the run, and a resume must ask the same")
     p.add_argument("--seed-base", type=int, default=40000,
                    help="first seed of the realistic set (default 40000: fresh seeds)")
     args = p.parse_args(argv)
@@ -264,9 +268,17 @@ def main(argv: list[str] | None = None) -> int:
         except ValueError as exc:
             print(f"error: {exc}", file=sys.stderr)
             return 2
+    if args.setting and not args.realistic:
+        print("error: --setting needs --realistic", file=sys.stderr)
+        return 2
     if args.realistic:
-        from mismatch_realistic import main_realistic
+        from mismatch_realistic import main_realistic, parse_settings
 
+        try:
+            args.settings = parse_settings(args.setting)
+        except ValueError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
         return main_realistic(args)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -311,7 +311,7 @@ def run_case(case: dict) -> dict:
     truth["snr_nominal"] = [d["visible"] for d in per_effect]
     truth["ooc_distinct"], truth["effect_distinct"] = per_ooc, per_effect
     try:
-        rep = build_report(diagnose(data_from_recording(rec)))
+        rep = build_report(diagnose(data_from_recording(rec), _settings(case)))
     except Exception:  # noqa: BLE001 - a traceback is what this benchmark counts
         return {**ids, "traceback": traceback.format_exc(limit=3)}
     row = {**ids, **score(rep, truth), "cpu_s": time.process_time() - t0,
@@ -323,6 +323,13 @@ def run_case(case: dict) -> dict:
         Path(case["keep"], f"{name}.report.json").write_text(json.dumps(rep, default=float))
         Path(case["keep"], f"{name}.truth.json").write_text(json.dumps(truth, default=str))
     return row
+
+
+def _settings(case: dict):
+    """The tool's settings a case is diagnosed with (``--setting``), None: the defaults."""
+    from tmopt.mismatch.diagnose import Settings
+
+    return Settings(**case["settings"]) if case.get("settings") else None
 
 
 def score(rep: dict, truth: dict) -> dict:
@@ -566,6 +573,67 @@ def only(todo: list[dict], spec: str) -> list[dict]:
             if (c["backend"], c["seed"]) in keys or (None, c["seed"]) in keys]  # fmt: skip
 
 
+def parse_settings(items: list[str] | None) -> dict:
+    """``--setting NAME=VALUE`` (repeatable): the tool's settings the run diagnoses with
+    (fields of :class:`tmopt.mismatch.diagnose.Settings`; a flag is ``true``/``false``, a
+    tuple comma-separated), checked by constructing them; raises ValueError naming the bad
+    item and what it allows."""
+    from dataclasses import fields
+
+    from tmopt.mismatch.diagnose import Settings
+
+    names = sorted(f.name for f in fields(Settings))
+    defaults, out = Settings(), {}
+    for item in items or []:
+        name, sep, text = item.partition("=")
+        name = name.strip().replace("-", "_")
+        if not sep or name not in names:
+            raise ValueError(f"--setting: {item!r} is not NAME=VALUE with NAME one of "
+                             f"{', '.join(names)}")  # fmt: skip
+        out[name] = _setting_value(name, text.strip(), getattr(defaults, name))
+    try:
+        Settings(**out)
+    except ValueError as exc:
+        raise ValueError(f"--setting: {exc}") from None
+    return out
+
+
+def _setting_value(name: str, text: str, default):
+    """``text`` read as ``default``'s type (a bool, int, float, tuple of str or str)."""
+    if isinstance(default, bool):
+        if text.lower() not in ("true", "false"):
+            raise ValueError(f"--setting: {name} must be true or false; got {text!r}")
+        return text.lower() == "true"
+    if isinstance(default, tuple):
+        return tuple(x.strip() for x in text.split(",") if x.strip())
+    try:
+        return type(default)(text)
+    except ValueError:
+        raise ValueError(f"--setting: {name} must be a {type(default).__name__}; "
+                         f"got {text!r}") from None  # fmt: skip
+
+
+def _run_settings(out: Path, asked: dict, running: bool) -> dict:
+    """The tool's settings of the run in ``out`` (``--setting``; ``{}``: the defaults of the
+    code that ran), kept in ``realistic_meta.json`` beside the scaler's version: a run
+    resumed with other settings would mix two tools in one table, so that is an error.
+    A run that simulates nothing (``--summarise``) only reads them."""
+    meta_path = out / "realistic_meta.json"
+    meta = json.loads(meta_path.read_text()) if meta_path.exists() else {}
+    have = meta.get("settings")
+    if have is None:  # a new run, or one made before settings were kept: the defaults
+        have = asked if not (out / "realistic_rows.jsonl").exists() else {}
+        meta_path.write_text(json.dumps({**meta, "settings": have}, indent=1))
+    if running and asked != have:
+        raise SystemExit(f"error: --setting {_settings_text(asked)}, but the run in {out} "
+                         f"was made with {_settings_text(have)}; use another --out")
+    return have
+
+
+def _settings_text(settings: dict) -> str:
+    return " ".join(f"{k}={v}" for k, v in sorted(settings.items())) or "the defaults"
+
+
 def _run_scaler(out: Path, asked: int | None, code: dict) -> int:
     """The SNR scaler version of the run in ``out``: kept in ``realistic_meta.json`` so a
     resumed or re-scored run regenerates its own recordings.  A run made before the file
@@ -611,15 +679,17 @@ def main_realistic(args) -> int:
     backends = ("kernel", "foreign") if args.backend == "both" else (args.backend,)
     code = provenance()
     scaler = _run_scaler(out, getattr(args, "scaler_version", None), code)
-    print(f"tmopt from {code['tmopt']} at {code['commit']}; SNR scaler version {scaler}",
-          flush=True)  # fmt: skip
+    settings = _run_settings(out, getattr(args, "settings", None) or {},
+                             not getattr(args, "summarise", False))  # fmt: skip
+    print(f"tmopt from {code['tmopt']} at {code['commit']}; SNR scaler version {scaler}; "
+          f"settings: {_settings_text(settings)}", flush=True)  # fmt: skip
     todo = [c for b in backends for c in cases(b, args.seed_base, args.quick, scaler)]
     # a fixed shuffle: a run stopped early has scored every category and both simulators
     todo = [todo[i] for i in np.random.default_rng(0).permutation(len(todo))]
     if getattr(args, "only", None):
         todo = only(todo, args.only)
     for c in todo:
-        c["keep"] = str(out / "realistic_reports")
+        c["keep"], c["settings"] = str(out / "realistic_reports"), settings
     rows = []
     done_path = out / "realistic_rows.jsonl"  # every row as it comes (nothing lost)
     if done_path.exists():  # resume: a killed run keeps what it scored

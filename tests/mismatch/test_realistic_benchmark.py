@@ -215,3 +215,62 @@ def test_the_clean_calibration_counts_the_defaults_alarms_and_refuses_a_benchmar
     text = mc.realistic_summary(rows)
     assert "| kernel | 1/4 | 0.250 |" in text and "| both | 1/8 | 0.125 |" in text
     assert "kernel 0: curvature[x2] GLR 28.2 p_holm 0.0037" in text
+
+
+def test_setting_reads_the_tools_settings_and_refuses_a_bad_one_in_one_line(bench, capsys):
+    """``--setting NAME=VALUE`` diagnoses with a non-default tool (an option scored on a
+    never-seen draw without patching the code); a bad name or value is refused in one line
+    naming it, before anything is simulated."""
+    mb, mr = bench
+    assert mr.parse_settings(["kin_profile=true", "alpha=0.02", "lowfreq=curvature"]) == {
+        "kin_profile": True, "alpha": 0.02, "lowfreq": ("curvature",)}
+    assert mr.parse_settings(None) == {}
+    for bad, named in (("kin_profil=true", "kin_profil"), ("kin_profile=yes", "kin_profile"),
+                       ("alpha=2", "alpha"), ("max_effects=x", "max_effects"),
+                       ("rails", "rails")):  # fmt: skip
+        assert mb.main(["--realistic", "--setting", bad]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "--setting" in err[0] and named in err[0], err
+    assert mb.main(["--setting", "kin_profile=true"]) == 2
+    assert "--realistic" in capsys.readouterr().err
+
+
+def test_a_run_keeps_its_settings_and_a_resume_must_ask_the_same(bench, tmp_path):
+    """Settings are kept with the run; resuming with others would mix two tools in one
+    table (refused), a summary reads what the run kept; a run from before they were kept
+    ran the defaults."""
+    _, mr = bench
+    new, old = tmp_path / "new", tmp_path / "old"
+    new.mkdir()
+    mr._run_scaler(new, None, {})
+    assert mr._run_settings(new, {"kin_profile": True}, True) == {"kin_profile": True}
+    meta = json.loads((new / "realistic_meta.json").read_text())
+    assert meta["settings"] == {"kin_profile": True} and meta["scaler_version"] == 2
+    assert mr._run_settings(new, {"kin_profile": True}, True) == {"kin_profile": True}
+    with pytest.raises(SystemExit, match="--setting the defaults, but .* kin_profile=True"):
+        mr._run_settings(new, {}, True)
+    assert mr._run_settings(new, {}, False) == {"kin_profile": True}
+    old.mkdir()
+    (old / "realistic_rows.jsonl").write_text("")
+    (old / "realistic_meta.json").write_text(json.dumps({"scaler_version": 2}))
+    with pytest.raises(SystemExit, match="kin_profile=True, but .* the defaults"):
+        mr._run_settings(old, {"kin_profile": True}, True)
+    assert mr._run_settings(old, {}, True) == {}
+
+
+def test_a_case_is_diagnosed_with_the_runs_settings(bench, monkeypatch):
+    """The settings reach the diagnosis of every case (not only the run's record)."""
+    _, mr = bench
+    import tmopt.mismatch.diagnose as dg
+
+    seen = []
+
+    def fake(data, settings=None):
+        seen.append(settings)
+        raise RuntimeError("stop here")
+
+    monkeypatch.setattr(dg, "diagnose", fake)
+    [case] = [c for c in mr.cases("kernel", 40000, True) if c["seed"] == 40000]
+    mr.run_case({**case, "settings": {"kin_profile": True}})
+    mr.run_case(case)
+    assert seen[0] == dg.Settings(kin_profile=True) and seen[1] is None
