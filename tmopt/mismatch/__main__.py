@@ -59,6 +59,11 @@ def _parser() -> argparse.ArgumentParser:
                         "ratio, the noise model estimated again under each (off by "
                         "default until a never-seen draw has scored it; docs/mismatch.md "
                         "9.29)")  # fmt: skip
+    p.add_argument("--onset-profile", action="store_true",
+                   help="read a generic force step or relaxation by its profile likelihood "
+                        "ratio, the equation noise model estimated again under it (off by "
+                        "default until a never-seen draw has scored it; docs/mismatch.md "
+                        "9.30)")  # fmt: skip
     p.add_argument("--no-witness-refit", action="store_true",
                    help="read a witness-driven candidate (rotation coupling) under the "
                         "null's noise model only, not also under the alternative's (on by "
@@ -99,7 +104,7 @@ def main(argv: list[str] | None = None) -> int:
                         pairs=not args.no_pairs,
                         true_position=not args.no_true_position,
                         rails=args.rails, kin_refit=args.kin_refit,
-                        kin_profile=args.kin_profile,
+                        kin_profile=args.kin_profile, onset_profile=args.onset_profile,
                         witness_refit=not args.no_witness_refit)  # fmt: skip
     dg = diagnose(data_from_recording(rec), settings)
     rep = write_report(dg, args.out, plots=not args.no_plots)

@@ -147,6 +147,13 @@ class Settings:
     # (foreign 270064: GLR 8.4, profile 79.8, the limit's 18.1^2 = 328).  Off until a
     # never-seen draw has scored it
     kin_profile: bool = False
+    # read a force step or relaxation (the generic onset features, :mod:`generic`) by its
+    # profile likelihood ratio: its column fitted *and* the equation group's noise model
+    # estimated again under it (:func:`_onset_profile`, docs 9.30).  A lasting force step
+    # is a 1/f^2 feature like the acceleration noise, and the null's spectrum takes it in
+    # (kernel 280112, SNR 39: GLR 31.7, profile 88.8).  Off until a never-seen draw has
+    # scored it
+    onset_profile: bool = False
     # also read a witness-driven candidate (its columns from the attitude witnesses, not
     # the TM loop: rotation coupling) under the noise model estimated with it fitted
     # (:func:`_witness_alternative`, docs 9.28): a slew over half the record is taken into
@@ -165,7 +172,7 @@ class Settings:
             raise ValueError(f"noise must be 'coloured' or 'white'; got {self.noise!r}")
         for name in ("generic", "joint", "rejudge", "in_place", "shape_search",
                      "shape_placements", "pairs", "true_position", "kin_refit",
-                     "kin_profile", "witness_refit"):
+                     "kin_profile", "onset_profile", "witness_refit"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name} must be True or False; got {getattr(self, name)!r}")
         if self.rails not in RAILS:
@@ -584,7 +591,7 @@ def _statistic(cand: Candidate, groups: dict) -> float:
     if cand.twin is not None and cand.twin_tested:
         return _joint(cand, groups)
     lam = groups[cand.group].glr(cand.columns)
-    profile = groups.get("kinematic_profile") if cand.group == "kinematic" else None
+    profile = groups.get(f"{cand.group}_profile") if _profiled(cand) else None
     if profile is not None:
         lam = profile(cand.columns, lam)
     alt = groups.get("kinematic_alt") if cand.group == "kinematic" else None
@@ -596,11 +603,69 @@ def _statistic(cand: Candidate, groups: dict) -> float:
     return lam
 
 
+def _profiled(cand: Candidate) -> bool:
+    """A candidate its group's profile ratio may read (``groups["<group>_profile"]``):
+    every kinematic one (:func:`_kin_profile`), and an equation one of the generic onset
+    features (:data:`ONSET_FEATURES`, :func:`_onset_profile`)."""
+    return cand.group == "kinematic" or (
+        cand.group == "equation" and cand.effect == generic.GENERIC
+        and (cand.fixed or {}).get("feature") in ONSET_FEATURES)  # fmt: skip
+
+
+#: The generic features :func:`_onset_profile` reads: a force that steps, or relaxes, to
+#: a new level and stays there -- power at the lowest frequencies, where the acceleration
+#: noise's 1/f^2 spectrum rests on a few periodogram bins.  Not ``curvature``: its null
+#: is calibrated as a GLR (``Settings.lowfreq``).
+ONSET_FEATURES = ("step", "relaxation")
+
+
 def _witness_moves(cand: Candidate) -> bool:
     """A witness-driven equation candidate whose witnesses move (still ones: no column)."""
     model = EFFECTS.get(cand.effect)
     return cand.group == "equation" and model is not None and model.witness_driven and \
         any(np.any(c.values) for c in cand.columns)  # fmt: skip
+
+
+def _equation_alternatives(data: Data, basis: np.ndarray, state: State,
+                           settings: Settings) -> dict:  # fmt: skip
+    """The equation group's readings under the alternative for ``state``, None where
+    off: ``groups["witness_alt"]`` (:func:`_witness_alternative`) and
+    ``groups["equation_profile"]`` (:func:`_onset_profile`)."""
+    return {"witness_alt": _witness_alternative(data, basis, state, settings),
+            "equation_profile": _onset_profile(data, basis, state, settings)}
+
+
+def _onset_profile(data: Data, basis: np.ndarray, state: State, settings: Settings):
+    """``(columns, L) -> statistic`` for a generic onset feature (:func:`_profiled`), or
+    None when ``settings.onset_profile`` is off or the equation noise model is not the
+    smoothed one: the profile likelihood ratio of adding its columns, the equation
+    group's noise model estimated again under each model (as :func:`_kin_profile`:
+    :meth:`NoiseModel.whittle_loglik` less the roughness penalty, over
+    :meth:`NoiseModel.taper_inflation`), where ``L`` reaches
+    :data:`PROFILE_SCREEN`; otherwise ``L`` itself.
+
+    Why: a lasting force step or relaxation puts its power in the lowest bins, as the
+    1/f^2 acceleration noise does; the null's smooth spectrum is estimated from a
+    residual that holds it and takes it in (kernel 280112, a force step of SNR 39 on x1:
+    its onset found at 600.4 s, truth 600.5 s, GLR 31.7 -- p 0.2 after its search and
+    the catalogue -- GLR 639 under the alternative's spectrum, profile ratio 88.8;
+    docs 9.30).  The search still places the onset by ``L``, and its trials factor is
+    kept."""
+    if not settings.onset_profile or state.eq_noise.kind != "smoothed":
+        return None
+    target = equation_target(data, basis)
+    noise0 = state.eq_noise
+    ll0 = noise0.whittle_loglik(state.eq_fit.residual)
+    inflation = noise0.taper_inflation()
+
+    def read(cols: list[Column], lam: float) -> float:
+        if lam < PROFILE_SCREEN:
+            return lam
+        fit, noise = _fit_eq(target, state.eq_cols + cols, state.red, data.layout, data.fs,
+                             noise0.kind)  # fmt: skip
+        return max(0.0, 2.0 * (noise.whittle_loglik(fit.residual) - ll0) / inflation)
+
+    return read
 
 
 def _witness_alternative(data: Data, basis: np.ndarray, state: State, settings: Settings):
@@ -652,7 +717,7 @@ def _tests(data: Data, basis: np.ndarray, state: State, settings: Settings,
     unnamed = generic.candidates(ctx) if settings.generic else []
     groups = residual_groups(data, state)
     groups.update(_kin_groups(data, state, named + unnamed, settings))
-    groups["witness_alt"] = _witness_alternative(data, basis, state, settings)
+    groups.update(_equation_alternatives(data, basis, state, settings))
     out = []
     for cand in named:
         if cand.group == "noise":
@@ -743,7 +808,7 @@ def _kin_profile(data: Data, state: State, alt: _IVGroup | None, settings: Setti
     candidates) it follows chi^2_1 (mean 0.99; the largest 11.7, below the selection's
     level 15.9, with 37117's at 11.7 where ``L_alt`` reached 114.8; docs 9.29).  One
     kinematic fit per candidate: only where ``L`` or ``L_alt`` (one shared fit per state)
-    reaches :data:`KIN_PROFILE_SCREEN` -- below it neither model lets the candidate take
+    reaches :data:`PROFILE_SCREEN` -- below it neither model lets the candidate take
     much out of the residual -- otherwise ``L`` itself.  ``alt``: the shared alternative
     (:func:`_kin_all_columns_group`)."""
     if not settings.kin_profile:
@@ -754,7 +819,7 @@ def _kin_profile(data: Data, state: State, alt: _IVGroup | None, settings: Setti
     inflation = noise0.taper_inflation()
 
     def read(cols: list[Column], lam: float) -> float:
-        if max(lam, alt.glr(cols) if alt is not None else 0.0) < KIN_PROFILE_SCREEN:
+        if max(lam, alt.glr(cols) if alt is not None else 0.0) < PROFILE_SCREEN:
             return lam
         fit, noise = _fit_kin(target, state.kin_cols + cols, data.kin_layout, data.fs)
         return max(0.0, 2.0 * (noise.whittle_loglik(fit.residual) - ll0) / inflation)
@@ -762,12 +827,13 @@ def _kin_profile(data: Data, state: State, alt: _IVGroup | None, settings: Setti
     return read
 
 
-#: A kinematic candidate's profile ratio (:func:`_kin_profile`) is computed only where its
-#: GLR under the null's or the shared alternative's noise model reaches this (chi^2_1's
-#: 95 % point): 74 of 1,052 candidates on 60 clean recordings (7 %; the largest ratio it
-#: leaves out there is 4.1), and every distinct readout scale the read draws missed (GLR
-#: >= 7 under one of them).
-KIN_PROFILE_SCREEN = 3.84
+#: A profile ratio (:func:`_kin_profile`, :func:`_onset_profile`) is computed only where
+#: the candidate's GLR (a kinematic one's: under the null's or the shared alternative's
+#: noise model) reaches this (chi^2_1's 95 % point): 74 of 1,052 kinematic candidates on
+#: 60 clean recordings (7 %; the largest ratio it leaves out there is 4.1), and every
+#: distinct readout scale the read draws missed (GLR >= 7 under one of them).  An onset
+#: feature's GLR is the maximum of its search, above it always.
+PROFILE_SCREEN = 3.84
 
 
 def _kin_candidates(data: Data, basis: np.ndarray, state: State,
@@ -1038,7 +1104,7 @@ def _given(data, basis, chosen: list[Evaluation], i: int, settings: Settings,
             kin = _kin_candidates(data, basis, st, settings)
             kin += [cand] if cand.key not in {c.key for c in kin} else []
             groups.update(_kin_groups(data, st, kin, settings))
-        groups["witness_alt"] = _witness_alternative(data, basis, st, settings)
+        groups.update(_equation_alternatives(data, basis, st, settings))
         g = groups[cand.group]
         lam = _statistic(cand, groups)
         dof, n, trials = len(cand.columns), g.n, cand.trials

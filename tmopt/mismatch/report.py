@@ -325,6 +325,7 @@ def _settings(dg: Diagnosis) -> dict:
             "pairs": dg.settings.pairs, "true_position": dg.settings.true_position,
             "rails": dg.settings.rails, "kin_refit": dg.settings.kin_refit,
             "kin_profile": dg.settings.kin_profile,
+            "onset_profile": dg.settings.onset_profile,
             "witness_refit": dg.settings.witness_refit}  # fmt: skip
 
 
