@@ -1,0 +1,139 @@
+"""A generic force step or relaxation read by its profile likelihood ratio (issue 26;
+docs/mismatch.md 9.30; :func:`tmopt.mismatch.diagnose._onset_profile`).
+
+A lasting force step puts its power in the lowest bins of the equation residual, where
+the acceleration noise's 1/f^2 spectrum rests on a few periodogram bins: the null's noise
+model is estimated from a residual that holds the step and takes it in.  The profile
+ratio fits the step's column *and* estimates the noise model again under it, each fit
+scored by Whittle's likelihood under its own model (as ``kin_profile``, 9.29).
+Development seeds (< 20000).  Off by default (``Settings.onset_profile``) until a
+never-seen draw has scored it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import pytest
+
+from tmopt.mismatch import generic
+from tmopt.mismatch.diagnose import (
+    Settings,
+    _equation_alternatives,
+    _fit_eq,
+    _given,
+    _profiled,
+    _tests,
+    diagnose,
+    fit_state,
+    prepare,
+    residual_groups,
+)
+from tmopt.mismatch.effects import Context
+from tmopt.mismatch.fit import data_from_recording, equation_target
+from tmopt.mismatch.realistic import draw_scenario, make_ooc, realistic_recording
+
+from .test_kin_profile import _whittle_by_hand
+
+ON = Settings(onset_profile=True)
+SEED = 16001  # kernel; a 1500 s record, x1 excited
+STEP = 2e-12  # m s^-2: GLR 29.5 under the null's spectrum (below the level), profile 60.4
+
+
+def _recording(seed: int, backend: str, step: float = 0.0):
+    sc = draw_scenario(seed, backend)
+    sc = replace(sc, duration=min(sc.duration, 1500.0))
+    ooc = [make_ooc("force_step", step, "x1", seed, sc)] if step else []
+    return realistic_recording(sc, [], ooc, seed, backend)[0], ooc
+
+
+@pytest.fixture(scope="module")
+def stepped():
+    rec, [ooc] = _recording(SEED, "kernel", STEP)
+    return rec, ooc, diagnose(data_from_recording(rec), ON)
+
+
+def _onset_candidates(d, basis, st):
+    ctx = Context(d, basis, st.eq_fit.residual, st.eq_noise)
+    return [c for c in generic.candidates(ctx) if c.group == "equation" and _profiled(c)]
+
+
+def test_a_force_step_the_null_spectrum_takes_in_is_reported_unexplained(stepped):
+    """Read by its profile ratio, the step is selected as an unexplained onset on x1 at
+    its time; the default (off) says nothing on the same record."""
+    rec, ooc, dg = stepped
+    [(ev, _)] = dg.selected
+    c = ev.candidate
+    assert c.effect == generic.GENERIC and c.channel == "x1", c.key
+    assert c.fixed["feature"] in ("step", "relaxation")
+    assert abs(c.fixed["t0_s"] - ooc.params["t_step"]) < 30.0, (c.fixed, ooc.params)
+    assert not diagnose(data_from_recording(rec)).selected
+
+
+def test_the_statistic_is_the_profile_ratio_computed_a_second_way(stepped):
+    """The statistic equals ``2 (ll1 - ll0) / inflation`` with both likelihoods computed by
+    hand (numpy FFT, scipy B-splines), and is well above the GLR under the null's model."""
+    dg = stepped[2]
+    d, basis = dg.data, dg.basis
+    st = fit_state(d, basis, [], [], False, ON)
+    cand = max(_onset_candidates(d, basis, st), key=lambda c: c.fixed["feature"] == "step")
+    read = _equation_alternatives(d, basis, st, ON)["equation_profile"]
+    got = read(cand.columns, 1e9)
+    fit1, noise1 = _fit_eq(equation_target(d, basis), st.eq_cols + cand.columns, st.red,
+                           d.layout, d.fs, st.eq_noise.kind)  # fmt: skip
+    ll0 = _whittle_by_hand(st.eq_fit.residual, st.eq_noise)
+    ll1 = _whittle_by_hand(fit1.residual, noise1)
+    want = 2 * (ll1 - ll0) / st.eq_noise.taper_inflation()
+    assert got == pytest.approx(want, rel=1e-6), (got, want)
+    lam = residual_groups(d, st)["equation"].glr(cand.columns)
+    assert lam < 36 < 50 < got, (lam, got)
+
+
+def test_backward_elimination_reads_it_by_its_profile_too(stepped):
+    """``_given`` rebuilds the model without the step, where the null's spectrum takes it
+    in again: read by its profile ratio it stays needed; off, it would go."""
+    dg = stepped[2]
+    chosen = [ev for ev, _ in dg.selected]
+    n_tests = len(dg.steps[0])
+    p, dbic = _given(dg.data, dg.basis, chosen, 0, dg.settings, n_tests)
+    assert p < dg.settings.alpha and dbic > 0, (p, dbic)
+    p_off, _ = _given(dg.data, dg.basis, chosen, 0, Settings(), n_tests)
+    assert p_off > dg.settings.alpha, p_off
+
+
+@pytest.mark.parametrize("backend", ["kernel", "foreign"])
+def test_on_a_clean_recording_no_onset_reaches_significance(backend):
+    """Under "no effect" no onset feature read by its profile ratio reaches the family's
+    level after its search and the Holm ladder, and every other statistic is the one the
+    default computes."""
+    d, basis = prepare(data_from_recording(_recording(SEED, backend)[0]))
+    st = fit_state(d, basis, [], [], False, Settings())
+    on = _tests(d, basis, st, ON, set())[0]
+    off = _tests(d, basis, st, Settings(), set())[0]
+    onset = [e for e in on if _profiled(e.candidate) and e.candidate.group == "equation"]
+    assert onset
+    assert all(e.p_value * len(on) > ON.alpha for e in onset), [
+        (e.candidate.key, e.glr, e.p_value) for e in onset]  # fmt: skip
+    assert [e.candidate.key for e in on] == [e.candidate.key for e in off]
+    for a, b in zip(on, off):
+        if a not in onset:
+            assert a.glr == b.glr, a.candidate.key
+
+
+def test_only_the_onset_features_are_read_by_the_equation_profile(stepped):
+    """A catalogue equation candidate (a drift, a gain) and the other generic features keep
+    their GLR: their nulls were calibrated as GLRs."""
+    dg = stepped[2]
+    d, basis = dg.data, dg.basis
+    st = fit_state(d, basis, [], [], False, ON)
+    evals = _tests(d, basis, st, ON, set())[0]
+    read = {e.candidate.fixed.get("feature") for e in evals
+            if e.candidate.group == "equation" and _profiled(e.candidate)}  # fmt: skip
+    assert read == {"step", "relaxation"}
+    assert not any(_profiled(e.candidate) for e in evals
+                   if e.candidate.group == "equation" and e.candidate.effect != "unexplained")
+
+
+def test_a_bad_switch_is_refused_naming_it():
+    with pytest.raises(ValueError, match="onset_profile must be True or False"):
+        Settings(onset_profile=1)
