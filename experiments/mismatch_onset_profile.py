@@ -45,7 +45,7 @@ def onset_statistics(rec) -> list[dict]:
     from tmopt.mismatch.diagnose import (
         Settings,
         _equation_alternatives,
-        _profiled,
+        _onset,
         fit_state,
         prepare,
         residual_groups,
@@ -61,7 +61,7 @@ def onset_statistics(rec) -> list[dict]:
     profile = _equation_alternatives(d, basis, s, st)["equation_profile"]
     out = []
     for c in generic.candidates(ctx):
-        if not _profiled(c) or c.group != "equation":
+        if not _onset(c) or c.group != "equation":
             continue
         lam = group.glr(c.columns)
         prof = profile(c.columns, float("inf"))  # past the screen: the ratio itself
