@@ -7,6 +7,8 @@ likelihood ratio (9.29; :func:`tmopt.mismatch.diagnose._kin_profile`).
     python experiments/mismatch_kin_alternative.py summary \
         results/mismatch_kin_alternative/null.jsonl
     python experiments/mismatch_kin_alternative.py case kernel:220066 foreign:220064 ...
+    python experiments/mismatch_kin_alternative.py redraw foreign:280020 \
+        --key "sensing_cross_talk[disp:x1<-x2]" --noise-seeds 38300-38307
     python experiments/mismatch_kin_alternative.py cost kernel:220000 foreign:220001
     python experiments/mismatch_kin_alternative.py cost --option kin_profile kernel:220000
 
@@ -21,6 +23,10 @@ likelihood ratio (9.29; :func:`tmopt.mismatch.diagnose._kin_profile`).
   ``calibration.KIN_REFIT_INFLATION``; and ``L_prof``'s mean, tail counts and largest;
 * ``case`` -- a benchmark recording (``backend:seed``): its three kinematic candidates
   with the largest ``L_alt``, both statistics;
+* ``redraw`` -- a clean recording's scenario (``backend:seed``) recorded again with other
+  noise draws (``--noise-seeds``): one kinematic candidate's (``--key``) estimate, its
+  standard error and ``L`` per draw, and their mean -- a simulator's own small residual
+  is the same in every draw, the null's tail is not;
 * ``cost`` -- a whole diagnosis with and without an option (``--option``: ``kin_refit``,
   the default, or ``kin_profile``), alternated three times in one process: the median
   ratio.
@@ -156,6 +162,48 @@ def case(specs: list[str]) -> None:
                                       for k, _, lam, a, p in rows))  # fmt: skip
 
 
+def redraw(spec: str, key: str, noise_seeds: list[int]) -> None:
+    from tmopt.mismatch.diagnose import (
+        Settings,
+        _kin_candidates,
+        fit_state,
+        prepare,
+        residual_groups,
+    )
+    from tmopt.mismatch.fit import data_from_recording
+    from tmopt.mismatch.realistic import draw_scenario, realistic_recording
+
+    b, seed = spec.split(":")
+    sc = draw_scenario(int(seed), b)
+    est = []
+    for noise_seed in [int(seed), *noise_seeds]:
+        rec, _ = realistic_recording(sc, (), (), noise_seed, b)
+        d, basis = prepare(data_from_recording(rec))
+        s = fit_state(d, basis, [], [], False, Settings())
+        group = residual_groups(d, s)["kinematic"]
+        cands = [c for c in _kin_candidates(d, basis, s, Settings()) if c.key == key]
+        if not cands:
+            raise SystemExit(f"error: --key {key!r} is not a kinematic candidate of {spec}")
+        value, sigma = group.estimate(cands[0].columns[0])
+        est.append((value, sigma))
+        print(f"{b} scenario {seed}, noise {noise_seed}: {key} {value:.3g} +- {sigma:.2g}, "
+              f"L {group.glr(cands[0].columns):.2f}", flush=True)  # fmt: skip
+    v, sd = np.array(est[1:]).T  # the other draws: the recording itself was picked
+    if v.size:
+        w = 1 / sd**2
+        mean, se = float(np.sum(w * v) / np.sum(w)), float(np.sum(w) ** -0.5)
+        print(f"the {v.size} other draws: weighted mean {mean:.3g} +- {se:.2g} "
+              f"({mean / se:.1f} sigma)")  # fmt: skip
+
+
+def _seeds(text: str) -> list[int]:
+    """``A-B`` or comma-separated seeds."""
+    if "-" in text:
+        lo, hi = map(int, text.split("-"))
+        return list(range(lo, hi + 1))
+    return [int(x) for x in text.split(",") if x]
+
+
 def cost(specs: list[str], option: str = "kin_refit") -> None:
     from mismatch_realistic import case_recording
 
@@ -186,8 +234,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", default="results/mismatch_kin_alternative/null.jsonl")
     sub.add_parser("summary").add_argument("paths", nargs="+")
     sub.add_parser("case").add_argument("recordings", nargs="+")
+    p = sub.add_parser("redraw")
+    p.add_argument("recording")
+    p.add_argument("--key", required=True)
+    p.add_argument("--noise-seeds", type=_seeds, default=list(range(38300, 38308)))
     p = sub.add_parser("cost")
-    p.add_argument("--option", choices=("kin_refit", "kin_profile"), default="kin_refit")
+    p.add_argument("--option", choices=("kin_refit", "kin_profile", "onset_profile"),
+                   default="kin_refit")
     p.add_argument("recordings", nargs="+")
     a = ap.parse_args(argv)
     if a.cmd == "null":
@@ -200,6 +253,8 @@ def main(argv: list[str] | None = None) -> int:
         summary(a.paths)
     elif a.cmd == "case":
         case(a.recordings)
+    elif a.cmd == "redraw":
+        redraw(a.recording, a.key, a.noise_seeds)
     else:
         cost(a.recordings, a.option)
     return 0
