@@ -147,12 +147,12 @@ class Settings:
     # (foreign 270064: GLR 8.4, profile 79.8, the limit's 18.1^2 = 328).  Off until a
     # never-seen draw has scored it
     kin_profile: bool = False
-    # read a force step or relaxation (the generic onset features, :mod:`generic`) by its
-    # profile likelihood ratio: its column fitted *and* the equation group's noise model
-    # estimated again under it (:func:`_onset_profile`, docs 9.30).  A lasting force step
-    # is a 1/f^2 feature like the acceleration noise, and the null's spectrum takes it in
-    # (kernel 280112, SNR 39: GLR 31.7, profile 88.8).  Off until a never-seen draw has
-    # scored it
+    # judge the significance of a force step or relaxation (the generic onset features,
+    # :mod:`generic`) by its profile likelihood ratio: its column fitted *and* the
+    # equation group's noise model estimated again under it (:func:`_onset_profile`,
+    # docs 9.30; the ranking keeps the GLR).  A lasting force step is a 1/f^2 feature like
+    # the acceleration noise, and the null's spectrum takes it in (kernel 280112, SNR 39:
+    # GLR 31.7, profile 88.8).  Off until a never-seen draw has scored it
     onset_profile: bool = False
     # also read a witness-driven candidate (its columns from the attitude witnesses, not
     # the TM loop: rotation coupling) under the noise model estimated with it fitted
@@ -735,7 +735,7 @@ def _tests(data: Data, basis: np.ndarray, state: State, settings: Settings,
 
 def _evaluation(cand: Candidate, groups: dict, settings: Settings) -> Evaluation:
     """A candidate's statistic (:func:`_statistic`) and p-value (its trials factor; its
-    calibrated null, :func:`_null_glr`)."""
+    calibrated null or profile ratio, :func:`_significance_glr`)."""
     lam = _statistic(cand, groups)
     dof = len(cand.columns)
     p = min(1.0, cand.trials * float(stats.chi2.sf(_significance_glr(cand, lam, groups,
