@@ -87,23 +87,15 @@ def statistics_of(rec) -> list[tuple[str, int, float, float | None, float | None
 
 
 def null(seed_base: int, n: int, out: Path) -> None:
-    from tmopt.mismatch.realistic import draw_scenario, realistic_recording
+    from mismatch_realistic import clean_recording, per_recording
 
-    out.parent.mkdir(parents=True, exist_ok=True)
-    done = {(r["backend"], r["seed"]) for r in map(json.loads, out.open())} \
-        if out.exists() else set()  # fmt: skip
-    with out.open("a") as fh:
-        for i in range(n):
-            for b in ("kernel", "foreign"):
-                seed = seed_base + i
-                if (b, seed) in done:
-                    continue
-                rec, _ = realistic_recording(draw_scenario(seed, b), (), (), seed, b)
-                rows = statistics_of(rec)
-                fh.write(json.dumps({"backend": b, "seed": seed, "rows": rows}) + "\n")
-                fh.flush()
-                top = max((r[3] or 0.0) for r in rows) if rows else 0.0
-                print(f"{b} {seed}: {len(rows)} candidates, largest L_alt {top:.2f}", flush=True)
+    def shown(row: dict) -> str:
+        top = max((r[3] or 0.0) for r in row["rows"]) if row["rows"] else 0.0
+        return f"{row['backend']} {row['seed']}: {len(row['rows'])} candidates, largest " \
+            f"L_alt {top:.2f}"  # fmt: skip
+
+    per_recording(seed_base, n, out,
+                  lambda b, seed, i: {"rows": statistics_of(clean_recording(seed, b))}, shown)
 
 
 def summary(paths: list[str]) -> None:

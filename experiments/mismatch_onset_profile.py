@@ -75,25 +75,18 @@ def onset_statistics(rec) -> list[dict]:
 
 
 def null(seed_base: int, n: int, out: Path) -> None:
-    from tmopt.mismatch.realistic import draw_scenario, realistic_recording
+    from mismatch_realistic import clean_recording, per_recording
 
-    out.parent.mkdir(parents=True, exist_ok=True)
-    done = {(r["backend"], r["seed"]) for r in map(json.loads, out.open())} \
-        if out.exists() else set()  # fmt: skip
-    with out.open("a") as fh:
-        for i in range(n):
-            for b in ("kernel", "foreign"):
-                seed = seed_base + i
-                if (b, seed) in done:
-                    continue
-                rec, _ = realistic_recording(draw_scenario(seed, b), (), (), seed, b)
-                rows = onset_statistics(rec)
-                fh.write(json.dumps({"backend": b, "seed": seed, "rows": rows}) + "\n")
-                fh.flush()
-                top = max(rows, key=lambda r: r["L_prof"]) if rows else None
-                print(f"{b} {seed}: {len(rows)} onset candidates" + (
-                    f", largest L_prof {top['L_prof']:.1f} ({top['feature']} "
-                    f"{top['channel']}, L {top['L']:.1f})" if top else ""), flush=True)
+    per_recording(seed_base, n, out,
+                  lambda b, seed, i: {"rows": onset_statistics(clean_recording(seed, b))},
+                  _shown)  # fmt: skip
+
+
+def _shown(row: dict) -> str:
+    top = max(row["rows"], key=lambda r: r["L_prof"]) if row["rows"] else None
+    return f"{row['backend']} {row['seed']}: {len(row['rows'])} onset candidates" + (
+        f", largest L_prof {top['L_prof']:.1f} ({top['feature']} {top['channel']}, "
+        f"L {top['L']:.1f})" if top else "")  # fmt: skip
 
 
 def summary(paths: list[str]) -> None:

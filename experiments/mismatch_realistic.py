@@ -744,6 +744,38 @@ def main_realistic(args) -> int:
 # ----------------------------------------------------------------------- calibration
 
 
+def clean_recording(seed: int, backend: str):
+    """A clean flight-like recording of ``backend``: scenario and noise drawn from
+    ``seed`` (a calibration null's record)."""
+    from tmopt.mismatch.realistic import draw_scenario, realistic_recording
+
+    return realistic_recording(draw_scenario(seed, backend), (), (), seed, backend)[0]
+
+
+def rows_done(out: Path) -> set:
+    """``(backend, seed)`` of the rows already in ``out`` (JSON lines; empty if none)."""
+    return {(r["backend"], r["seed"]) for r in map(json.loads, out.open())} \
+        if out.exists() else set()  # fmt: skip
+
+
+def per_recording(seed_base: int, n: int, out: Path, job, show=None) -> None:
+    """``job(backend, seed, i) -> row`` for seeds ``seed_base .. + n`` of both simulators,
+    each row streamed to ``out`` (JSON lines) and printed (``show(row) -> str``, default
+    the row itself); resumable: rows already there are skipped."""
+    out.parent.mkdir(parents=True, exist_ok=True)
+    done = rows_done(out)
+    with out.open("a") as fh:
+        for i in range(n):
+            for b in ("kernel", "foreign"):
+                seed = seed_base + i
+                if (b, seed) in done:
+                    continue
+                row = {"backend": b, "seed": seed, **job(b, seed, i)}
+                fh.write(json.dumps(row) + "\n")
+                fh.flush()
+                print(show(row) if show else json.dumps(row), flush=True)
+
+
 def case_recording(backend: str, seed: int):
     """Benchmark recording ``seed`` of ``backend`` (its set's seed base: the seed rounded
     down to 10000), made as the benchmark makes it: ``(recording, truth)``."""

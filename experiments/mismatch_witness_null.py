@@ -46,6 +46,8 @@ from scipy import stats
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from mismatch_realistic import clean_recording, per_recording, rows_done  # noqa: E402
+
 #: The selection's level for a 2-parameter candidate: chi^2_2 at FAMILY_ALPHA over the
 #: catalogue's size (~150 candidates a step).
 CATALOGUE_SIZE = 150
@@ -131,37 +133,9 @@ def with_witnesses(rec, kind: str, seed: int):
     return validate(Recording(chans, dict(rec.attrs), source=rec.source))
 
 
-def _clean(seed: int, backend: str):
-    from tmopt.mismatch.realistic import draw_scenario, realistic_recording
-
-    return realistic_recording(draw_scenario(seed, backend), (), (), seed, backend)[0]
-
-
-def _done(out: Path) -> set:
-    return {(r["backend"], r["seed"]) for r in map(json.loads, out.open())} \
-        if out.exists() else set()  # fmt: skip
-
-
-def per_recording(seed_base: int, n: int, out: Path, job) -> None:
-    """``job(backend, seed, i) -> row`` for seeds ``seed_base .. + n`` of both simulators,
-    each row streamed to ``out`` (JSON lines) and printed; resumable."""
-    out.parent.mkdir(parents=True, exist_ok=True)
-    done = _done(out)
-    with out.open("a") as fh:
-        for i in range(n):
-            for b in ("kernel", "foreign"):
-                seed = seed_base + i
-                if (b, seed) in done:
-                    continue
-                row = {"backend": b, "seed": seed, **job(b, seed, i)}
-                fh.write(json.dumps(row) + "\n")
-                fh.flush()
-                print(json.dumps(row), flush=True)
-
-
 def null(seed_base: int, n: int, out: Path) -> None:
     per_recording(seed_base, n, out,
-                  lambda b, seed, i: {"rows": statistics_of(_clean(seed, b), seed)})
+                  lambda b, seed, i: {"rows": statistics_of(clean_recording(seed, b), seed)})
 
 
 def summary(paths: list[str]) -> None:
@@ -216,7 +190,7 @@ def sizes(paths: list[str], top: int) -> None:
         if "n_tests" in r:
             continue
         kind = max(r["rows"], key=lambda x: x[2])[0]
-        d, basis, state = nominal(with_witnesses(_clean(r["seed"], r["backend"]), kind,
+        d, basis, state = nominal(with_witnesses(clean_recording(r["seed"], r["backend"]), kind,
                                                  r["seed"]))  # fmt: skip
         r["n_tests"] = len(evaluate(d, basis, state, Settings(), set()))
         print(f"{r['backend']} {r['seed']} ({kind}): {r['n_tests']} candidates", flush=True)
@@ -232,7 +206,7 @@ def diagnose_rows(seed_base: int, n: int, out: Path) -> None:
     def job(b: str, seed: int, i: int) -> dict:
         kind = MOTIONS[i % len(MOTIONS)]
         rep = build_report(diagnose(data_from_recording(
-            with_witnesses(_clean(seed, b), kind, seed))))  # fmt: skip
+            with_witnesses(clean_recording(seed, b), kind, seed))))  # fmt: skip
         return {"motion": kind, "alarm": bool(rep["mismatch_detected"]),
                 "names": [f"{e['name']}[{e['channel']}]" for e in rep["effects"]],
                 "unexplained": (rep.get("unexplained_at") or {}).get("channels", [])}
@@ -266,7 +240,7 @@ def moving(rows_path: str, categories: list[str], out: Path) -> None:
     rows = [r for r in rows if r["category"] in categories and "rotation" not in r["truth"]
             and "found" in r]  # fmt: skip
     out.parent.mkdir(parents=True, exist_ok=True)
-    done = _done(out)
+    done = rows_done(out)
     with out.open("a") as fh:
         for i, r in enumerate(rows):
             if (r["backend"], r["seed"]) in done:

@@ -274,3 +274,26 @@ def test_a_case_is_diagnosed_with_the_runs_settings(bench, monkeypatch):
     mr.run_case({**case, "settings": {"kin_profile": True}})
     mr.run_case(case)
     assert seen[0] == dg.Settings(kin_profile=True) and seen[1] is None
+
+
+def test_a_calibration_nulls_rows_stream_and_resume(bench, tmp_path, capsys):
+    """``per_recording`` (the nulls of experiments/mismatch_*_null and *_profile): one
+    row per recording of both simulators, streamed; a rerun skips what is there."""
+    _, mr = bench
+    out = tmp_path / "null.jsonl"
+    calls = []
+
+    def job(b, seed, i):
+        calls.append((b, seed))
+        return {"value": seed * 2}
+
+    mr.per_recording(37000, 2, out, job, lambda row: f"{row['backend']} {row['seed']}")
+    assert calls == [("kernel", 37000), ("foreign", 37000), ("kernel", 37001),
+                     ("foreign", 37001)]  # fmt: skip
+    assert capsys.readouterr().out.splitlines()[0] == "kernel 37000"
+    mr.per_recording(37000, 3, out, job)
+    assert calls[4:] == [("kernel", 37002), ("foreign", 37002)]
+    rows = [json.loads(x) for x in out.read_text().splitlines()]
+    assert [(r["backend"], r["seed"], r["value"]) for r in rows][-1] == ("foreign", 37002, 74004)
+    assert len(rows) == 6 and mr.rows_done(out) == {(b, s) for b in ("kernel", "foreign")
+                                                    for s in (37000, 37001, 37002)}
