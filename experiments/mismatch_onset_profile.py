@@ -129,20 +129,18 @@ def case(specs: list[str]) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from mismatch_realistic import add_null_parser, null_args_error
+
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
-    p = sub.add_parser("null")
-    p.add_argument("--seed-base", type=int, default=37370)
-    p.add_argument("--n", type=int, default=30)
-    p.add_argument("--out", default="results/mismatch_onset_profile/null.jsonl")
+    add_null_parser(sub, "null", 37370, 30, "results/mismatch_onset_profile/null.jsonl")
     sub.add_parser("summary").add_argument("paths", nargs="+")
     sub.add_parser("case").add_argument("recordings", nargs="+")
     sub.add_parser("cost").add_argument("recordings", nargs="+")
     a = ap.parse_args(argv)
     if a.cmd == "null":
-        if a.n < 1 or not 0 <= a.seed_base < 40000:
-            print("--n must be >= 1 and --seed-base in [0, 40000) (calibration seeds)",
-                  file=sys.stderr)  # fmt: skip
+        if error := null_args_error(a):
+            print(error, file=sys.stderr)
             return 2
         null(a.seed_base, a.n, Path(a.out))
     elif a.cmd == "summary":

@@ -776,6 +776,22 @@ def per_recording(seed_base: int, n: int, out: Path, job, show=None) -> None:
                 print(show(row) if show else json.dumps(row), flush=True)
 
 
+def add_null_parser(sub, name: str, seed_base: int, n: int, out: str) -> None:
+    """A calibration null's subcommand (``--seed-base``, ``--n``, ``--out``) for
+    :func:`per_recording`; :func:`null_args_error` checks it."""
+    p = sub.add_parser(name)
+    p.add_argument("--seed-base", type=int, default=seed_base)
+    p.add_argument("--n", type=int, default=n)
+    p.add_argument("--out", default=out)
+
+
+def null_args_error(args) -> str | None:
+    """One line naming what is out of range in a null's arguments, or None."""
+    if args.n < 1 or not 0 <= args.seed_base < 40000:
+        return "--n must be >= 1 and --seed-base in [0, 40000) (calibration seeds)"
+    return None
+
+
 def case_recording(backend: str, seed: int):
     """Benchmark recording ``seed`` of ``backend`` (its set's seed base: the seed rounded
     down to 10000), made as the benchmark makes it: ``(recording, truth)``."""

@@ -46,7 +46,13 @@ from scipy import stats
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from mismatch_realistic import clean_recording, per_recording, rows_done  # noqa: E402
+from mismatch_realistic import (  # noqa: E402
+    add_null_parser,
+    clean_recording,
+    null_args_error,
+    per_recording,
+    rows_done,
+)
 
 #: The selection's level for a 2-parameter candidate: chi^2_2 at FAMILY_ALPHA over the
 #: catalogue's size (~150 candidates a step).
@@ -272,10 +278,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
     for name in ("null", "diagnose"):
-        p = sub.add_parser(name)
-        p.add_argument("--seed-base", type=int, default=37200 if name == "null" else 37260)
-        p.add_argument("--n", type=int, default=60 if name == "null" else 20)
-        p.add_argument("--out", default=f"results/mismatch_witness_null/{name}.jsonl")
+        add_null_parser(sub, name, 37200 if name == "null" else 37260,
+                        60 if name == "null" else 20, f"results/mismatch_witness_null/{name}.jsonl")
     sub.add_parser("summary").add_argument("paths", nargs="+")
     p = sub.add_parser("sizes")
     p.add_argument("paths", nargs="+")
@@ -288,9 +292,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", default="results/mismatch_witness_null/moving.jsonl")
     a = ap.parse_args(argv)
     if a.cmd in ("null", "diagnose"):
-        if a.n < 1 or not 0 <= a.seed_base < 40000:
-            print("--n must be >= 1 and --seed-base in [0, 40000) (calibration seeds)",
-                  file=sys.stderr)  # fmt: skip
+        if error := null_args_error(a):
+            print(error, file=sys.stderr)
             return 2
         (null if a.cmd == "null" else diagnose_rows)(a.seed_base, a.n, Path(a.out))
     elif a.cmd == "summary":
