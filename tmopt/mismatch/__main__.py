@@ -57,13 +57,12 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--kin-profile", action="store_true",
                    help="read the kinematic group's candidates by their profile likelihood "
                         "ratio, the noise model estimated again under each (off by "
-                        "default until a never-seen draw has scored it; docs/mismatch.md "
-                        "9.29)")  # fmt: skip
+                        "default; docs/mismatch.md 9.29, 9.30)")  # fmt: skip
     p.add_argument("--onset-profile", action="store_true",
-                   help="read a generic force step or relaxation by its profile likelihood "
-                        "ratio, the equation noise model estimated again under it (off by "
-                        "default until a never-seen draw has scored it; docs/mismatch.md "
-                        "9.30)")  # fmt: skip
+                   help="judge a generic force step or relaxation's significance by its "
+                        "profile likelihood ratio, the equation noise model estimated again "
+                        "under it (off by default: it can out-rank a glitch; "
+                        "docs/mismatch.md 9.30)")  # fmt: skip
     p.add_argument("--no-witness-refit", action="store_true",
                    help="read a witness-driven candidate (rotation coupling) under the "
                         "null's noise model only, not also under the alternative's (on by "

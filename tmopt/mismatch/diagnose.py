@@ -144,15 +144,17 @@ class Settings:
     # the kinematic noise model estimated again under it, each fit scored by its Whittle
     # likelihood (:func:`_kin_profile`, docs 9.29): what a readout scale takes into the
     # null's spectrum counts, without kin_refit's heavy-tailed shared alternative
-    # (foreign 270064: GLR 8.4, profile 79.8, the limit's 18.1^2 = 328).  Off until a
-    # never-seen draw has scored it
+    # (foreign 270064: GLR 8.4, profile 79.8, the limit's 18.1^2 = 328).  Off: on the
+    # never-seen 290000 it named two readout scales more with no false alarm more (docs
+    # 9.30), but the slow suite has not run with it
     kin_profile: bool = False
     # judge the significance of a force step or relaxation (the generic onset features,
     # :mod:`generic`) by its profile likelihood ratio: its column fitted *and* the
     # equation group's noise model estimated again under it (:func:`_onset_profile`,
     # docs 9.30; the ranking keeps the GLR).  A lasting force step is a 1/f^2 feature like
     # the acceleration noise, and the null's spectrum takes it in (kernel 280112, SNR 39:
-    # GLR 31.7, profile 88.8).  Off until a never-seen draw has scored it
+    # GLR 31.7, profile 88.8).  Off: on the never-seen 290000 it reported a force step
+    # and left two storm glitches unnamed (an onset at a glitch's place; docs 9.30)
     onset_profile: bool = False
     # also read a witness-driven candidate (its columns from the attitude witnesses, not
     # the TM loop: rotation coupling) under the noise model estimated with it fitted
