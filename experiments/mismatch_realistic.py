@@ -617,13 +617,16 @@ def _run_settings(out: Path, asked: dict, running: bool) -> dict:
     """The tool's settings of the run in ``out`` (``--setting``; ``{}``: the defaults of the
     code that ran), kept in ``realistic_meta.json`` beside the scaler's version: a run
     resumed with other settings would mix two tools in one table, so that is an error.
-    A run that simulates nothing (``--summarise``) only reads them."""
+    A run that simulates nothing (``--summarise``) only reads them; a run made before
+    they were kept is read as the defaults and its record is left as it is."""
     meta_path = out / "realistic_meta.json"
     meta = json.loads(meta_path.read_text()) if meta_path.exists() else {}
     have = meta.get("settings")
-    if have is None:  # a new run, or one made before settings were kept: the defaults
-        have = asked if not (out / "realistic_rows.jsonl").exists() else {}
+    if have is None and not (out / "realistic_rows.jsonl").exists():  # a new run
+        have = asked
         meta_path.write_text(json.dumps({**meta, "settings": have}, indent=1))
+    elif have is None:  # made before settings were kept: not written for it
+        have = {}
     if running and asked != have:
         raise SystemExit(f"error: --setting {_settings_text(asked)}, but the run in {out} "
                          f"was made with {_settings_text(have)}; use another --out")

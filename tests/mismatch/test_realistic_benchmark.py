@@ -256,6 +256,8 @@ def test_a_run_keeps_its_settings_and_a_resume_must_ask_the_same(bench, tmp_path
     with pytest.raises(SystemExit, match="kin_profile=True, but .* the defaults"):
         mr._run_settings(old, {"kin_profile": True}, True)
     assert mr._run_settings(old, {}, True) == {}
+    # an old run's record is not rewritten with settings it never recorded
+    assert "settings" not in json.loads((old / "realistic_meta.json").read_text())
 
 
 def test_a_case_is_diagnosed_with_the_runs_settings(bench, monkeypatch):

@@ -657,18 +657,28 @@ def _onset_profile(data: Data, basis: np.ndarray, state: State, settings: Settin
     if not settings.onset_profile or state.eq_noise.kind != "smoothed":
         return None
     target = equation_target(data, basis)
-    noise0 = state.eq_noise
-    ll0 = noise0.whittle_loglik(state.eq_fit.residual)
-    inflation = noise0.taper_inflation()
+    ratio = _profile_ratio(state.eq_noise, state.eq_fit.residual, lambda cols: _fit_eq(
+        target, state.eq_cols + cols, state.red, data.layout, data.fs, state.eq_noise.kind))
+    return lambda cols, lam: lam if lam < PROFILE_SCREEN else ratio(cols)
 
-    def read(cols: list[Column], lam: float) -> float:
-        if lam < PROFILE_SCREEN:
-            return lam
-        fit, noise = _fit_eq(target, state.eq_cols + cols, state.red, data.layout, data.fs,
-                             noise0.kind)  # fmt: skip
-        return max(0.0, 2.0 * (noise.whittle_loglik(fit.residual) - ll0) / inflation)
 
-    return read
+def _profile_ratio(noise0: NoiseModel, residual0: np.ndarray, refit):
+    """``columns -> 2 (l1 - l0) / r``: the profile likelihood ratio of adding ``columns``
+    to a group fitted with noise model ``noise0`` and residual ``residual0``;
+    ``refit(columns) -> (fit, noise)`` fits the group with them, its noise model
+    estimated again.  ``l``: each fit's Whittle objective under its own model
+    (:meth:`NoiseModel.whittle_loglik`); ``r``: the taper's over-count
+    (:meth:`NoiseModel.taper_inflation`).  The null's ``l0`` is computed at the first
+    call (a state whose candidates all fall below the screen pays nothing)."""
+    null: list[float] = []
+
+    def ratio(cols: list[Column]) -> float:
+        if not null:
+            null.extend([noise0.whittle_loglik(residual0), noise0.taper_inflation()])
+        fit, noise = refit(cols)
+        return max(0.0, 2.0 * (noise.whittle_loglik(fit.residual) - null[0]) / null[1])
+
+    return ratio
 
 
 def _witness_alternative(data: Data, basis: np.ndarray, state: State, settings: Settings):
@@ -818,15 +828,13 @@ def _kin_profile(data: Data, state: State, alt: _IVGroup | None, settings: Setti
     if not settings.kin_profile:
         return None
     target = state.kinematic_target(data)
-    noise0 = state.kin_noise
-    ll0 = noise0.whittle_loglik(state.kin_fit.residual)
-    inflation = noise0.taper_inflation()
+    ratio = _profile_ratio(state.kin_noise, state.kin_fit.residual, lambda cols: _fit_kin(
+        target, state.kin_cols + cols, data.kin_layout, data.fs))
 
     def read(cols: list[Column], lam: float) -> float:
         if max(lam, alt.glr(cols) if alt is not None else 0.0) < PROFILE_SCREEN:
             return lam
-        fit, noise = _fit_kin(target, state.kin_cols + cols, data.kin_layout, data.fs)
-        return max(0.0, 2.0 * (noise.whittle_loglik(fit.residual) - ll0) / inflation)
+        return ratio(cols)
 
     return read
 
