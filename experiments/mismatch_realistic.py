@@ -615,22 +615,48 @@ def _setting_value(name: str, text: str, default):
 
 def _run_settings(out: Path, asked: dict, running: bool) -> dict:
     """The tool's settings of the run in ``out`` (``--setting``; ``{}``: the defaults of the
-    code that ran), kept in ``realistic_meta.json`` beside the scaler's version: a run
-    resumed with other settings would mix two tools in one table, so that is an error.
-    A run that simulates nothing (``--summarise``) only reads them; a run made before
-    they were kept is read as the defaults and its record is left as it is."""
+    code that ran), kept in ``realistic_meta.json`` beside the scaler's version, with every
+    setting they came to (``effective``: a default may change between stops, as
+    ``kin_profile`` did at stop 55).  A run resumed with other effective settings would mix
+    two tools in one table, so that is an error, as is resuming a run that did not keep
+    them (its defaults are not known).  A run that simulates nothing (``--summarise``)
+    only reads them; a run made before they were kept is read as the defaults and its
+    record is left as it is."""
     meta_path = out / "realistic_meta.json"
     meta = json.loads(meta_path.read_text()) if meta_path.exists() else {}
-    have = meta.get("settings")
+    have, wanted = meta.get("settings"), effective_settings(asked)
     if have is None and not (out / "realistic_rows.jsonl").exists():  # a new run
-        have = asked
-        meta_path.write_text(json.dumps({**meta, "settings": have}, indent=1))
+        have, meta = asked, {**meta, "settings": asked, "effective": wanted}
+        meta_path.write_text(json.dumps(meta, indent=1))
     elif have is None:  # made before settings were kept: not written for it
         have = {}
-    if running and asked != have:
-        raise SystemExit(f"error: --setting {_settings_text(asked)}, but the run in {out} "
-                         f"was made with {_settings_text(have)}; use another --out")
-    return have
+    if not running:
+        return have
+    kept = meta.get("effective")
+    if kept is None:
+        raise SystemExit(f"error: the run in {out} did not keep the settings it ran with "
+                         f"(made by {meta.get('commit', 'an older commit')}, whose defaults "
+                         f"may differ); resume it with that code, or use another --out")
+    if kept != wanted:
+        differ = sorted(k for k in set(kept) | set(wanted) if kept.get(k) != wanted.get(k))
+        raise SystemExit(f"error: --setting {_settings_text(asked)} runs the tool with "
+                         f"{_values_text(wanted, differ)}, but the run in {out} was made "
+                         f"with {_values_text(kept, differ)}; use another --out")
+    return asked
+
+
+def effective_settings(asked: dict) -> dict:
+    """Every field of :class:`tmopt.mismatch.diagnose.Settings` that ``asked`` comes to
+    with this code's defaults, as JSON keeps it (a tuple as a list)."""
+    from dataclasses import asdict
+
+    from tmopt.mismatch.diagnose import Settings
+
+    return json.loads(json.dumps(asdict(Settings(**asked))))
+
+
+def _values_text(settings: dict, names: list[str]) -> str:
+    return " ".join(f"{k}={settings.get(k, '(absent)')}" for k in names)
 
 
 def _settings_text(settings: dict) -> str:

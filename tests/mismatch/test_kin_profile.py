@@ -6,8 +6,8 @@ still holds it, and a readout scale that dominates the lowest bins of the residu
 pieces is taken into that spectrum (docs 9.24).  The profile ratio fits the candidate's
 column *and* estimates the noise model again under it, and scores each fit by Whittle's
 likelihood under its own model, divided by the taper's over-count of the pooled
-periodogram (Hann: 35/18).  Development seeds (< 20000).  Off by default
-(``Settings.kin_profile``) until a never-seen draw has scored it.
+periodogram (Hann: 35/18).  Development seeds (< 20000).  On by default
+(``Settings.kin_profile``) since stop 55, after two never-seen draws scored it (9.31).
 """
 
 from __future__ import annotations
@@ -36,6 +36,7 @@ from tmopt.mismatch.noise_model import ROUGHNESS, Layout, taper
 from .test_kinematic_alternative import SEED, _recording  # the same record as kin_refit's
 
 ON = Settings(kin_profile=True)
+OFF = Settings(kin_profile=False)
 
 
 @pytest.fixture(scope="module")
@@ -48,13 +49,13 @@ def dominated():
 
 
 def test_a_readout_scale_that_dominates_its_residual_is_named(dominated):
-    """Named alone, its estimate within 5 sigma of the truth; the default (off) names
-    nothing on the same record."""
+    """Named alone, its estimate within 5 sigma of the truth; with the option off nothing
+    is named on the same record."""
     rec, inj, dg = dominated
     assert [ev.candidate.key for ev, _ in dg.selected] == ["readout_scale[disp:x2]"]
     e, sigma = effect_parameters(dg.after, dg.selected[0][0].candidate)["e"]
     assert abs(abs(e) - inj.magnitude) < 5 * sigma, (e, sigma)
-    assert not diagnose(data_from_recording(rec)).selected
+    assert not diagnose(data_from_recording(rec), OFF).selected
 
 
 def test_backward_elimination_reads_it_by_its_profile_too(dominated):
@@ -65,7 +66,7 @@ def test_backward_elimination_reads_it_by_its_profile_too(dominated):
     n_tests = len(dg.steps[0])
     p, dbic = _given(dg.data, dg.basis, chosen, 0, dg.settings, n_tests)
     assert p < 1e-10 and dbic > 100, (p, dbic)
-    p_off, _ = _given(dg.data, dg.basis, chosen, 0, Settings(), n_tests)
+    p_off, _ = _given(dg.data, dg.basis, chosen, 0, OFF, n_tests)
     assert p_off > dg.settings.alpha, p_off
 
 
@@ -139,9 +140,9 @@ def test_on_a_clean_recording_nothing_reaches_the_level(backend):
     selection's level (chi^2_1 at FAMILY_ALPHA / 150: 15.9), and the other groups'
     statistics are untouched."""
     d, basis = prepare(data_from_recording(_recording(SEED, backend)))
-    st = fit_state(d, basis, [], [], False, Settings())
+    st = fit_state(d, basis, [], [], False, OFF)
     on = {e.candidate.key: e for e in _tests(d, basis, st, ON, set())[0]}
-    off = {e.candidate.key: e for e in _tests(d, basis, st, Settings(), set())[0]}
+    off = {e.candidate.key: e for e in _tests(d, basis, st, OFF, set())[0]}
     assert on.keys() == off.keys()
     assert all(on[k].glr == off[k].glr for k in on if on[k].candidate.group != "kinematic")
     kin = {k: round(on[k].glr, 2) for k in on if on[k].candidate.group == "kinematic"}

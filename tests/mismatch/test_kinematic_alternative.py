@@ -32,6 +32,11 @@ from tmopt.mismatch.realistic import draw_scenario, realistic_recording
 
 SEED = 16004  # kernel: x1 and x2 excited; a 1500 s record
 
+# kin_refit on and off with kin_profile off (on by default since stop 55), so that what
+# the tests measure is the shared alternative's noise model alone
+REFIT = Settings(kin_refit=True, kin_profile=False)
+NO_REFIT = Settings(kin_refit=False, kin_profile=False)
+
 
 def _recording(seed: int, backend: str, effects=()):
     sc = draw_scenario(seed, backend)
@@ -44,7 +49,7 @@ def dominated():
     """A displacement readout scale of 1e-3 on x2: the kinematic residual is the effect."""
     inj = Injection("readout_scale", 1e-3, "x2", options={"sensor": "disp"})
     rec = _recording(SEED, "kernel", [inj])
-    return rec, inj, diagnose(data_from_recording(rec), Settings(kin_refit=True))
+    return rec, inj, diagnose(data_from_recording(rec), REFIT)
 
 
 def test_a_readout_scale_that_dominates_its_residual_is_named(dominated):
@@ -55,7 +60,7 @@ def test_a_readout_scale_that_dominates_its_residual_is_named(dominated):
     assert [ev.candidate.key for ev, _ in dg.selected] == ["readout_scale[disp:x2]"]
     e, sigma = effect_parameters(dg.after, dg.selected[0][0].candidate)["e"]
     assert abs(abs(e) - inj.magnitude) < 5 * sigma, (e, sigma)
-    before = diagnose(data_from_recording(rec), Settings(kin_refit=False))
+    before = diagnose(data_from_recording(rec), NO_REFIT)
     assert not before.selected, [ev.candidate.key for ev, _ in before.selected]
 
 
@@ -69,7 +74,7 @@ def test_backward_elimination_reads_it_under_the_alternative_too(dominated):
     n_tests = len(dg.steps[0])
     p, dbic = _given(dg.data, dg.basis, chosen, 0, dg.settings, n_tests)
     assert p < 1e-10 and dbic > 100, (p, dbic)
-    p_off, _ = _given(dg.data, dg.basis, chosen, 0, Settings(kin_refit=False), n_tests)
+    p_off, _ = _given(dg.data, dg.basis, chosen, 0, NO_REFIT, n_tests)
     assert p_off > dg.settings.alpha, p_off
 
 
@@ -80,9 +85,9 @@ def test_on_a_clean_recording_no_statistic_moves(backend):
     the one the tool had without it."""
     d, basis = prepare(data_from_recording(_recording(SEED, backend)))
     st = fit_state(d, basis, [], [], False, Settings())
-    on = {e.candidate.key: e.glr for e in _tests(d, basis, st, Settings(kin_refit=True),
+    on = {e.candidate.key: e.glr for e in _tests(d, basis, st, REFIT,
                                                   set())[0]}  # fmt: skip
-    off = {e.candidate.key: e.glr for e in _tests(d, basis, st, Settings(kin_refit=False),
+    off = {e.candidate.key: e.glr for e in _tests(d, basis, st, NO_REFIT,
                                                    set())[0]}  # fmt: skip
     assert on.keys() == off.keys()
     moved = {k: (off[k], on[k]) for k in on if on[k] != off[k]}
@@ -106,7 +111,7 @@ def test_why_it_is_off_a_clean_record_whose_tone_sits_in_the_lowest_bins():
     seed = 37117
     rec, _ = realistic_recording(draw_scenario(seed, "foreign"), (), (), seed, "foreign")
     d, basis = prepare(data_from_recording(rec))
-    on = Settings(kin_refit=True)
+    on = REFIT
     st = fit_state(d, basis, [], [], False, on)
     cands = _kin_candidates(d, basis, st, on)
     [c] = [c for c in cands if c.key == "readout_scale[disp:y2]"]

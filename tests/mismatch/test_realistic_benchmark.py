@@ -236,26 +236,42 @@ def test_setting_reads_the_tools_settings_and_refuses_a_bad_one_in_one_line(benc
 
 
 def test_a_run_keeps_its_settings_and_a_resume_must_ask_the_same(bench, tmp_path):
-    """Settings are kept with the run; resuming with others would mix two tools in one
-    table (refused), a summary reads what the run kept; a run from before they were kept
-    ran the defaults."""
+    """Settings are kept with the run, with every setting they come to; resuming with
+    other effective settings would mix two tools in one table (refused), a summary reads
+    what the run kept; a run from before they were kept ran the defaults of its code,
+    which are not known, so it is not resumed."""
+    from tmopt.mismatch.diagnose import Settings
+
     _, mr = bench
-    new, old = tmp_path / "new", tmp_path / "old"
+    new, old, older = tmp_path / "new", tmp_path / "old", tmp_path / "older"
     new.mkdir()
     mr._run_scaler(new, None, {})
-    assert mr._run_settings(new, {"kin_profile": True}, True) == {"kin_profile": True}
+    off = {"onset_profile": False, "kin_profile": False}
+    assert mr._run_settings(new, {"kin_profile": False}, True) == {"kin_profile": False}
     meta = json.loads((new / "realistic_meta.json").read_text())
-    assert meta["settings"] == {"kin_profile": True} and meta["scaler_version"] == 2
-    assert mr._run_settings(new, {"kin_profile": True}, True) == {"kin_profile": True}
-    with pytest.raises(SystemExit, match="--setting the defaults, but .* kin_profile=True"):
+    assert meta["settings"] == {"kin_profile": False} and meta["scaler_version"] == 2
+    assert meta["effective"]["kin_profile"] is False and meta["effective"]["alpha"] > 0
+    assert meta["effective"]["lowfreq"] == list(Settings().lowfreq)
+    assert mr._run_settings(new, {"kin_profile": False}, True) == {"kin_profile": False}
+    # the same tool asked another way (onset_profile's default said out loud) is no mix
+    assert mr._run_settings(new, off, True) == off
+    with pytest.raises(SystemExit, match="runs the tool with kin_profile=True, but .* "
+                                         "made with kin_profile=False; use another"):
         mr._run_settings(new, {}, True)
-    assert mr._run_settings(new, {}, False) == {"kin_profile": True}
-    old.mkdir()
-    (old / "realistic_rows.jsonl").write_text("")
-    (old / "realistic_meta.json").write_text(json.dumps({"scaler_version": 2}))
-    with pytest.raises(SystemExit, match="kin_profile=True, but .* the defaults"):
-        mr._run_settings(old, {"kin_profile": True}, True)
-    assert mr._run_settings(old, {}, True) == {}
+    assert mr._run_settings(new, {}, False) == {"kin_profile": False}
+    # a default changed after a run was made: the run keeps what it ran
+    meta["effective"]["onset_profile"] = True
+    (new / "realistic_meta.json").write_text(json.dumps(meta))
+    with pytest.raises(SystemExit, match="onset_profile=False, but .* onset_profile=True"):
+        mr._run_settings(new, {"kin_profile": False}, True)
+    for run, kept in ((old, {"scaler_version": 2, "commit": "02566d4"}),
+                      (older, {"scaler_version": 2, "settings": {}})):
+        run.mkdir()
+        (run / "realistic_rows.jsonl").write_text("")
+        (run / "realistic_meta.json").write_text(json.dumps(kept))
+        with pytest.raises(SystemExit, match="did not keep the settings it ran with"):
+            mr._run_settings(run, {}, True)
+    assert mr._run_settings(old, {}, False) == {} and mr._run_settings(older, {}, False) == {}
     # an old run's record is not rewritten with settings it never recorded
     assert "settings" not in json.loads((old / "realistic_meta.json").read_text())
 
@@ -273,9 +289,9 @@ def test_a_case_is_diagnosed_with_the_runs_settings(bench, monkeypatch):
 
     monkeypatch.setattr(dg, "diagnose", fake)
     [case] = [c for c in mr.cases("kernel", 40000, True) if c["seed"] == 40000]
-    mr.run_case({**case, "settings": {"kin_profile": True}})
+    mr.run_case({**case, "settings": {"kin_profile": False}})
     mr.run_case(case)
-    assert seen[0] == dg.Settings(kin_profile=True) and seen[1] is None
+    assert seen[0] == dg.Settings(kin_profile=False) and seen[1] is None
 
 
 def test_a_calibration_nulls_rows_stream_and_resume(bench, tmp_path, capsys):

@@ -54,10 +54,10 @@ def _parser() -> argparse.ArgumentParser:
                         "estimated with every kinematic column fitted (off by default: its "
                         "null is heavy-tailed where the tones sit in the record's lowest "
                         "bins; docs/mismatch.md 9.24)")  # fmt: skip
-    p.add_argument("--kin-profile", action="store_true",
+    p.add_argument("--kin-profile", action=argparse.BooleanOptionalAction, default=True,
                    help="read the kinematic group's candidates by their profile likelihood "
-                        "ratio, the noise model estimated again under each (off by "
-                        "default; docs/mismatch.md 9.29, 9.30)")  # fmt: skip
+                        "ratio, the noise model estimated again under each (on by "
+                        "default; docs/mismatch.md 9.29-9.31)")  # fmt: skip
     p.add_argument("--onset-profile", action="store_true",
                    help="judge a generic force step or relaxation's significance by its "
                         "profile likelihood ratio, the equation noise model estimated again "

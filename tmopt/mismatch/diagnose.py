@@ -144,10 +144,10 @@ class Settings:
     # the kinematic noise model estimated again under it, each fit scored by its Whittle
     # likelihood (:func:`_kin_profile`, docs 9.29): what a readout scale takes into the
     # null's spectrum counts, without kin_refit's heavy-tailed shared alternative
-    # (foreign 270064: GLR 8.4, profile 79.8, the limit's 18.1^2 = 328).  Off: on the
-    # never-seen 290000 it named two readout scales more with no false alarm more (docs
-    # 9.30), but the slow suite has not run with it
-    kin_profile: bool = False
+    # (foreign 270064: GLR 8.4, profile 79.8, the limit's 18.1^2 = 328).  On since stop
+    # 55: on two never-seen draws' paired rows it named five readout scales more for one
+    # false alarm more in 123 clean recordings (280000 subset, 290000; docs 9.29-9.31)
+    kin_profile: bool = True
     # judge the significance of a force step or relaxation (the generic onset features,
     # :mod:`generic`) by its profile likelihood ratio: its column fitted *and* the
     # equation group's noise model estimated again under it (:func:`_onset_profile`,
