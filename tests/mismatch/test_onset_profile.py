@@ -18,18 +18,22 @@ import pytest
 
 from tmopt.mismatch import generic
 from tmopt.mismatch.diagnose import (
+    Evaluation,
     Settings,
+    _best,
     _equation_alternatives,
     _fit_eq,
     _given,
+    _holm_adjusted,
     _onset,
+    _rivals,
     _tests,
     diagnose,
     fit_state,
     prepare,
     residual_groups,
 )
-from tmopt.mismatch.effects import Context, Injection
+from tmopt.mismatch.effects import Candidate, Context, Injection
 from tmopt.mismatch.fit import data_from_recording, equation_target
 from tmopt.mismatch.realistic import draw_scenario, make_ooc, realistic_recording
 
@@ -149,3 +153,42 @@ def test_a_bias_drift_is_still_named_a_drift(seed, backend):
 def test_a_bad_switch_is_refused_naming_it():
     with pytest.raises(ValueError, match="onset_profile must be True or False"):
         Settings(onset_profile=1)
+
+
+def _ev(effect: str, glr: float, p_holm: float, p_holm_glr: float | None = None):
+    """An evaluation with the numbers :func:`_best` reads (one column, no search)."""
+    fixed = {"feature": "step"} if effect == generic.GENERIC else {}
+    cand = Candidate(effect, "x2", "equation", ["a"], ["m s^-2"], fixed=fixed)
+    ev = Evaluation(cand, glr, 1, 20000, p_holm, p_holm)
+    if p_holm_glr is not None:
+        ev.p_glr, ev.p_holm_glr = p_holm, p_holm_glr
+    return ev
+
+
+def test_an_onset_significant_only_by_its_ratio_does_not_displace_a_named_effect():
+    """Kernel 290145 and 290147 (docs 9.30): an onset at a glitch's place, ahead of it in
+    the GLR ranking and insignificant there, made significant by its profile ratio, took
+    the glitch's place.  It ranks after every candidate significant by its GLR, and is no
+    near rival of one; where nothing else is significant it is taken (the force step of
+    kernel 280112); an onset significant by its GLR ranks as before."""
+    alpha = ON.alpha
+    glitch = _ev("glitch", 60.0, 1e-6)
+    rescued = _ev(generic.GENERIC, 70.0, 1e-3, 0.3)
+    plain = _ev(generic.GENERIC, 70.0, 1e-3, 1e-3)
+    assert rescued.by_profile_only(alpha) and not plain.by_profile_only(alpha)
+    assert _best([glitch, rescued], alpha) is glitch
+    assert _rivals([glitch, rescued], glitch, alpha) == [glitch]
+    assert _best([rescued], alpha) is rescued
+    assert _best([glitch, plain], alpha) is plain
+    assert _rivals([glitch, plain], plain, alpha) == [glitch, plain]
+
+
+def test_holm_adjusts_the_glr_p_values_beside_the_ratios():
+    """``p_holm_glr``: Holm's ladder over the step's p-values with each onset's GLR
+    p-value in place of its ratio's; an evaluation that read its GLR keeps its own."""
+    evs = [_ev("glitch", 60.0, 0.001), _ev(generic.GENERIC, 70.0, 0.002, 0.002)]
+    evs[1].p_glr = 0.02  # its GLR alone: 0.02 before the ladder
+    _holm_adjusted(evs)
+    assert evs[0].p_holm == pytest.approx(0.002) and evs[1].p_holm == pytest.approx(0.002)
+    assert evs[1].p_holm_glr == pytest.approx(0.02) and evs[0].p_holm_glr == evs[0].p_holm
+    assert evs[1].by_profile_only(0.01) and not evs[0].by_profile_only(0.01)

@@ -153,8 +153,9 @@ class Settings:
     # equation group's noise model estimated again under it (:func:`_onset_profile`,
     # docs 9.30; the ranking keeps the GLR).  A lasting force step is a 1/f^2 feature like
     # the acceleration noise, and the null's spectrum takes it in (kernel 280112, SNR 39:
-    # GLR 31.7, profile 88.8).  Off: on the never-seen 290000 it reported a force step
-    # and left two storm glitches unnamed (an onset at a glitch's place; docs 9.30)
+    # GLR 31.7, profile 88.8).  An onset significant only by its ratio ranks after every
+    # candidate significant by its GLR (:func:`_best`): on the never-seen 290000 it had
+    # left two storm glitches unnamed (an onset at a glitch's place; docs 9.30, 9.31)
     onset_profile: bool = False
     # also read a witness-driven candidate (its columns from the attitude witnesses, not
     # the TM loop: rotation coupling) under the noise model estimated with it fitted
@@ -218,6 +219,15 @@ class Evaluation:
     n_obs: int
     p_value: float
     p_holm: float = 1.0
+    #: where the p-value read another statistic than the GLR (a generic onset's profile
+    #: ratio, :func:`_onset_profile`): the p-value its GLR would give, and Holm's
+    #: adjustment of it among the step's others (:func:`_holm_adjusted`)
+    p_glr: float | None = None
+    p_holm_glr: float = 1.0
+
+    def by_profile_only(self, alpha: float) -> bool:
+        """Significant at ``alpha`` only because its p-value read the profile ratio."""
+        return self.p_glr is not None and self.p_holm < alpha <= self.p_holm_glr
 
     @property
     def dbic(self) -> float:
@@ -750,9 +760,16 @@ def _evaluation(cand: Candidate, groups: dict, settings: Settings) -> Evaluation
     calibrated null or profile ratio, :func:`_significance_glr`)."""
     lam = _statistic(cand, groups)
     dof = len(cand.columns)
-    p = min(1.0, cand.trials * float(stats.chi2.sf(_significance_glr(cand, lam, groups,
-                                                                     settings), dof)))
-    return Evaluation(cand, lam, dof, groups[cand.group].n, p)
+    ev = Evaluation(cand, lam, dof, groups[cand.group].n,
+                    _p_value(cand, _significance_glr(cand, lam, groups, settings), dof))
+    if _onset(cand) and groups.get("equation_profile") is not None:
+        ev.p_glr = _p_value(cand, _null_glr(cand, lam, settings), dof)
+    return ev
+
+
+def _p_value(cand: Candidate, statistic: float, dof: int) -> float:
+    """chi^2_dof's tail at ``statistic`` times the candidate's trials factor (its search)."""
+    return min(1.0, cand.trials * float(stats.chi2.sf(statistic, dof)))
 
 
 def _kin_alternative_group(data: Data, state: State, cands: list[Candidate],
@@ -878,8 +895,14 @@ def _null_glr(cand: Candidate, lam: float, settings: Settings) -> float:
 
 
 def _holm_adjusted(evals: list[Evaluation]) -> list[Evaluation]:
+    """Holm's adjustment of the step's p-values; where some read a profile ratio, also of
+    the p-values the GLRs give (``Evaluation.p_holm_glr``, :meth:`by_profile_only`)."""
     for e, p in zip(evals, holm([e.p_value for e in evals])):
         e.p_holm = float(p)
+    if any(e.p_glr is not None for e in evals):
+        glr = holm([e.p_value if e.p_glr is None else e.p_glr for e in evals])
+        for e, p in zip(evals, glr):
+            e.p_holm_glr = float(p) if e.p_glr is not None else e.p_holm
     return evals
 
 
@@ -1200,12 +1223,37 @@ def _take_best(data, basis, state: State, sig: list[Evaluation], exclude: set[st
     near rivals within AMBIGUOUS_DBIC) and the refitted state. A repeatable effect stays
     testable (a record can hold several glitches); any other chosen candidate joins
     ``exclude``."""
-    best = max(sig, key=lambda e: e.dbic)
-    alts = [e for e in sig if e is not best and best.dbic - e.dbic < cal.AMBIGUOUS_DBIC]
+    best = _best(sig, settings.alpha)
+    alts = [e for e in _rivals(sig, best, settings.alpha)
+            if e is not best and best.dbic - e.dbic < cal.AMBIGUOUS_DBIC]  # fmt: skip
     model = EFFECTS.get(best.candidate.effect)  # None: an unnamed feature (repeatable)
     if model is not None and not model.repeatable:
         exclude.add(best.candidate.key)
     return (best, alts), _add(data, basis, state, best, settings)
+
+
+def _best(sig: list[Evaluation], alpha: float) -> Evaluation:
+    """The significant candidate with the largest dBIC; one significant only by its
+    profile ratio (:meth:`Evaluation.by_profile_only`) only where none is significant by
+    its GLR.
+
+    Why: the profile ratio lets a force step be *found* that the null's spectrum took in
+    (kernel 280112), but the ranking reads raw GLRs, and an onset at a glitch's place is
+    ahead of the glitch there all along while its GLR is not significant.  Made
+    significant by its ratio it won, and two storm glitches the tool had named were left
+    unexplained (kernel 290145, 290147; docs 9.30).  The ratio rescues what nothing else
+    explains; it does not displace a name the GLR supports."""
+    plain = [e for e in sig if not e.by_profile_only(alpha)]
+    return max(plain or sig, key=lambda e: e.dbic)
+
+
+def _rivals(sig: list[Evaluation], best: Evaluation, alpha: float) -> list[Evaluation]:
+    """The candidates that may stand as ``best``'s near rivals: the significant ones,
+    less those significant only by their profile ratio where ``best`` is significant by
+    its GLR (:func:`_best`: they do not rank beside it)."""
+    if best.by_profile_only(alpha):
+        return sig
+    return [e for e in sig if not e.by_profile_only(alpha)]
 
 
 def _deterministic_instead(data, basis, state: State, evals: list[Evaluation],
@@ -1917,7 +1965,7 @@ def _select(data: Data, basis: np.ndarray, before: State, settings: Settings,
                 exclude.add(ev.candidate.key)
                 state = _add(data, basis, state, ev, settings)
             continue
-        best = max(sig, key=lambda e: e.dbic)
+        best = _best(sig, settings.alpha)
         if best.candidate.group == "noise":
             alt = _deterministic_instead(data, basis, state, evals, settings, exclude,
                                          len(steps[0]), tests)  # fmt: skip
