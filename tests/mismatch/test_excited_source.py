@@ -66,14 +66,19 @@ def test_a_cross_talk_from_an_excited_axis_is_named_beside_a_gain():
 def test_with_the_tone_instrument_the_same_cross_talk_is_too_weak_to_name(monkeypatch):
     """The failure the rule fixes: the rule off (the tone part as instrument) and the
     kinematic group read under the null's noise model only (``kin_refit=False``, the tool
-    the rule was made for), the cross-talk is selected with dBIC below 6 and reported "or
-    no effect"."""
+    the rule was made for, ``kin_profile`` off as it then was), the cross-talk is selected
+    with dBIC below 6 and reported "or no effect".  Read by its profile ratio
+    (``kin_profile``, on by default since stop 55) it is named even with the rule off."""
     monkeypatch.setattr(base, "EXCITED_SOURCE_OLS", False)
-    rep = build_report(diagnose(data_from_recording(_recording()), Settings(kin_refit=False)))
+    rec = _recording()
+    rep = build_report(diagnose(data_from_recording(rec),
+                                Settings(kin_refit=False, kin_profile=False)))  # fmt: skip
     assert _named(rep) == [("actuation_gain", "x2")]
     [amb] = rep["ambiguous"]
     assert amb["channel"] == "disp:x1<-y1"
     assert amb["rivals"][0]["name"].startswith("no effect")
+    profiled = build_report(diagnose(data_from_recording(rec), Settings(kin_refit=False)))
+    assert _named(profiled) == [("actuation_gain", "x2"), ("sensing_cross_talk", "disp:x1<-y1")]
 
 
 @pytest.mark.slow  # 44 s; an option off by default (test_rejudge's k674 covers it fast)

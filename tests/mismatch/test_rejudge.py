@@ -10,6 +10,8 @@ not excuse).  Development seeds (< 20000), both simulators' generator as in the 
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 
 from tmopt.mismatch.diagnose import (
@@ -96,10 +98,11 @@ def test_a_near_alternative_the_data_still_need_the_effect_beside_is_no_rival():
     group came within AMBIGUOUS_DBIC, so the name was ambiguous.  Fitted in the coupling's
     place, the cross-talk is still strongly needed (:func:`needed_in_place`): the coupling
     cannot stand in, and the cross-talk is named.  ``in_place=False`` is the tool before.
-    Both with the kinematic group read under the null's noise model only (the default,
-    ``kin_refit=False``): read under the alternative's (docs/mismatch.md 9.24) the
-    cross-talk is no near tie at all -- the null's spectrum had taken in its signature
-    (GLR 43.7 against 4.6e4) -- and it is named with no alternative in the band."""
+    Both with the kinematic group read under the null's noise model only (``kin_refit``
+    and ``kin_profile`` off, the defaults until stop 55): read under the alternative's
+    (docs/mismatch.md 9.24) the cross-talk is no near tie at all -- the null's spectrum had
+    taken in its signature (GLR 43.7 against 4.6e4) -- and it is named with no alternative
+    in the band; so it is by its profile ratio (``kin_profile``, the default since)."""
     sc = draw_scenario(674, "kernel")
     inj = Injection("sensing_cross_talk", MAGNITUDES["sensing_cross_talk"]["large"], "y1",
                     options={"source": "x1", "sensor": "disp"})  # fmt: skip
@@ -108,13 +111,17 @@ def test_a_near_alternative_the_data_still_need_the_effect_beside_is_no_rival():
     dg = diagnose(data_from_recording(rec), Settings(kin_refit=True))
     assert [(ev.candidate.key, alts) for ev, alts in dg.selected] == \
         [("sensing_cross_talk[disp:y1<-x1]", [])]  # fmt: skip
-    rep = build_report(diagnose(data_from_recording(rec), Settings(kin_refit=False)))
+    profiled = build_report(diagnose(data_from_recording(rec)))
+    assert [(e["name"], e["channel"]) for e in profiled["effects"]] == \
+        [("sensing_cross_talk", "disp:y1<-x1")], profiled["conclusion"]  # fmt: skip
+    assert not profiled["ambiguous"] and "needed_in_place_of" not in profiled["data_used"]
+    null = Settings(kin_refit=False, kin_profile=False)
+    rep = build_report(diagnose(data_from_recording(rec), null))
     assert [(e["name"], e["channel"]) for e in rep["effects"]] == \
         [("sensing_cross_talk", "disp:y1<-x1")], rep["conclusion"]  # fmt: skip
     assert rep["data_used"]["needed_in_place_of"] == [
         "sensing_cross_talk[disp:y1<-x1] (not stiffness_cross_coupling[y1<-x1])"]
-    before = build_report(diagnose(data_from_recording(rec),
-                                   Settings(in_place=False, kin_refit=False)))  # fmt: skip
+    before = build_report(diagnose(data_from_recording(rec), replace(null, in_place=False)))
     assert not before["effects"], before["conclusion"]
     [amb] = before["ambiguous"]
     assert [r["name"] for r in amb["rivals"]] == ["stiffness_cross_coupling"], amb["rivals"]
