@@ -60,6 +60,11 @@ halfstep`` is then stop 50's tool, ``curvature`` (the default) the shipped one:
     python experiments/mismatch_conventions.py bench --n 12 --recorded held+rmean \
         --out bench_rmean.jsonl   # and --tool halfstep
 
+``pinned --records foreign:300014,foreign:280012,foreign:260007 --pin chosen,mean`` diagnoses
+benchmark recordings with the convention chosen from the data and pinned to each one
+asked (the recording's ``acc_sampling`` attribute): three clean foreign false alarms,
+all recorded ``mean`` and read otherwise, vanish when it is pinned (9.31).
+
 ``scan --seed-base 240000`` reads the convention of every recording of a read benchmark
 set with the shipped tool: the half-step and curvature terms must take none of them
 (where they take none, the diagnosis is the one before them: nothing else changed);
@@ -353,6 +358,64 @@ def scan(args) -> None:
               f"({row['curvature_evidence']})", flush=True)
 
 
+def pinned(args) -> None:
+    """Benchmark recordings (``backend:seed``, made as the benchmark makes them) diagnosed
+    with the accelerometer convention chosen from the data (``chosen``) and pinned by the
+    recording's ``acc_sampling`` attribute to each convention asked: what a clean record's
+    finding owes to the convention the tool kept undecided (docs/mismatch.md 9.31)."""
+    from mismatch_realistic import case_recording
+
+    from tmopt.mismatch.diagnose import diagnose
+    from tmopt.mismatch.fit import ACC_ATTRIBUTE, data_from_recording
+    from tmopt.mismatch.report import build_report
+    from tmopt.run.outputs import library_versions
+
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    done = set()
+    if out.exists():
+        done = {(r["backend"], r["seed"], r["pin"])
+                for r in map(json.loads, out.read_text().splitlines())}  # fmt: skip
+    versions = library_versions()
+    for backend, seed in _records(args.records):
+        rec, truth = case_recording(backend, seed)
+        for pin in args.pin.split(","):
+            if (backend, seed, pin) in done:
+                continue
+            rec.attrs.pop(ACC_ATTRIBUTE, None)
+            if pin != "chosen":
+                rec.attrs[ACC_ATTRIBUTE] = pin
+            t = time.process_time()
+            rep = build_report(diagnose(data_from_recording(rec)))
+            row = {"backend": backend, "seed": seed, "pin": pin,
+                   "recorded": truth["scenario"].get("acc_convention"),
+                   "read": rep["data_used"].get("acc_convention"),
+                   "names": [f"{e['name']}[{e['channel']}]" for e in rep["effects"]],
+                   "unexplained": rep["unexplained_at"]["channels"] if rep["unexplained"]
+                   else [],
+                   "features": [[f["feature"], f["channel"], f["evidence"]["glr"]]
+                                for f in rep["features"]],
+                   "alarm": bool(rep["mismatch_detected"]),
+                   "cpu_s": time.process_time() - t, "versions": versions}  # fmt: skip
+            with out.open("a") as fh:
+                fh.write(json.dumps(row) + "\n")
+            print(f"{backend} {seed} pinned {pin} (recorded {row['recorded']}, read "
+                  f"{row['read']}): names {row['names']}, unexplained {row['unexplained']}, "
+                  f"features {row['features']}", flush=True)  # fmt: skip
+
+
+def _records(text: str) -> list[tuple[str, int]]:
+    """``backend:seed,...`` -> [(backend, seed)]; a bad item raises SystemExit naming it."""
+    out = []
+    for item in text.split(","):
+        backend, _, seed = item.strip().partition(":")
+        if backend not in ("kernel", "foreign") or not seed.isdigit() or int(seed) < 40000:
+            raise SystemExit(f"--records items are backend:seed, backend kernel or foreign, "
+                             f"seed a benchmark seed (>= 40000); got {item!r}")
+        out.append((backend, int(seed)))
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -379,7 +442,19 @@ def main(argv: list[str] | None = None) -> int:
     sc.add_argument("--out", required=True)
     bs = sub.add_parser("bench-summary")
     bs.add_argument("rows")
+    pn = sub.add_parser("pinned")
+    pn.add_argument("--records", required=True, help="backend:seed,... benchmark recordings")
+    pn.add_argument("--pin", default="chosen,held,mean,end",
+                    help="chosen and/or conventions among held, mean, end")
+    pn.add_argument("--out", required=True)
     args = ap.parse_args(argv)
+    if args.cmd == "pinned":
+        bad = sorted(set(args.pin.split(",")) - {"chosen", *_ZOH})
+        if bad:
+            raise SystemExit(f"--pin must be among chosen, {', '.join(_ZOH)}; got {bad}")
+        _records(args.records)
+        pinned(args)
+        return 0
     if args.cmd == "bench":
         if not _recordable(args.recorded):
             raise SystemExit(f"--recorded must be one of {RECORDED} (N in 1-100); "

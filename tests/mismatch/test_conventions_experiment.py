@@ -1,0 +1,29 @@
+"""experiments/mismatch_conventions.py's ``pinned`` (docs/mismatch.md 9.31): bad input is
+refused in one line naming the parameter, before any recording is made."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+EXPERIMENTS = Path(__file__).resolve().parents[2] / "experiments"
+
+
+@pytest.mark.parametrize(("args", "named"), [
+    (["--records", "foreign:12"], "--records"),
+    (["--records", "satellite:300014"], "--records"),
+    (["--records", "foreign:300014", "--pin", "chosen,middle"], "--pin"),
+])  # fmt: skip
+def test_pinned_refuses_bad_input_before_any_work(monkeypatch, tmp_path, args, named):
+    monkeypatch.syspath_prepend(str(EXPERIMENTS))
+    import mismatch_conventions as mc
+
+    def never(_):
+        raise AssertionError("work started")
+
+    monkeypatch.setattr(mc, "pinned", never)
+    with pytest.raises(SystemExit, match=named) as exc:
+        mc.main(["pinned", *args, "--out", str(tmp_path / "rows.jsonl")])
+    assert "\n" not in str(exc.value)
+    assert not (tmp_path / "rows.jsonl").exists()
