@@ -379,7 +379,7 @@ def test_a_name_beyond_physics_the_final_model_no_longer_wants_is_withdrawn(monk
     were left ambiguous beside it.  Tested again on the final model it is not wanted, so
     it is withdrawn with a note -- while a clipped accelerometer's stays (above).  That path
     is taken with ``kin_profile`` off (the default until stop 55); with it on (the default
-    since), the displacement scale leads from its first step, and no detour is taken."""
+    since) the same two true names come without an accelerometer scale to withdraw."""
     monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[2] / "experiments"))
     import mismatch_realistic as mr
 
