@@ -1,5 +1,6 @@
-"""experiments/mismatch_conventions.py's ``pinned`` (docs/mismatch.md 9.31): bad input is
-refused in one line naming the parameter, before any recording is made."""
+"""experiments/mismatch_conventions.py's ``pinned`` and ``likelihood`` (docs/mismatch.md
+9.31): bad input is refused in one line naming the parameter, before any recording is
+made."""
 
 from __future__ import annotations
 
@@ -27,3 +28,15 @@ def test_pinned_refuses_bad_input_before_any_work(monkeypatch, tmp_path, args, n
         mc.main(["pinned", *args, "--out", str(tmp_path / "rows.jsonl")])
     assert "\n" not in str(exc.value)
     assert not (tmp_path / "rows.jsonl").exists()
+
+
+def test_likelihood_refuses_a_bad_record_before_any_work(monkeypatch):
+    monkeypatch.syspath_prepend(str(EXPERIMENTS))
+    import mismatch_conventions as mc
+
+    def never(_):
+        raise AssertionError("work started")
+
+    monkeypatch.setattr(mc, "likelihood", never)
+    with pytest.raises(SystemExit, match="--records .* got 'kernel:300014x'"):
+        mc.main(["likelihood", "--records", "foreign:300014,kernel:300014x"])
