@@ -436,15 +436,20 @@ def likelihood(args) -> None:
 
 
 def _records(text: str) -> list[tuple[str, int]]:
-    """``backend:seed,...`` -> [(backend, seed)]; a bad item raises SystemExit naming it."""
-    out = []
-    for item in text.split(","):
-        backend, _, seed = item.strip().partition(":")
-        if backend not in ("kernel", "foreign") or not seed.isdigit() or int(seed) < 40000:
-            raise SystemExit(f"--records items are backend:seed, backend kernel or foreign, "
-                             f"seed a benchmark seed (>= 40000); got {item!r}")
-        out.append((backend, int(seed)))
-    return out
+    """``--records`` read as the benchmark's ``--only`` (:func:`mismatch_realistic.parse_only`:
+    ``SEED`` for both simulators, or ``BACKEND:SEED``) -> sorted [(backend, seed)], every
+    seed a benchmark seed (>= 40000); a bad item raises SystemExit naming it."""
+    from mismatch_realistic import parse_only
+
+    try:
+        keys = parse_only(text, "--records")
+    except ValueError as exc:
+        raise SystemExit(str(exc)) from None
+    low = sorted(seed for _, seed in keys if seed < 40000)
+    if low:
+        raise SystemExit(f"--records: seeds must be benchmark seeds (>= 40000); got {low}")
+    both = ("kernel", "foreign")
+    return sorted({(b, seed) for backend, seed in keys for b in ((backend,) if backend else both)})
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -474,12 +479,12 @@ def main(argv: list[str] | None = None) -> int:
     bs = sub.add_parser("bench-summary")
     bs.add_argument("rows")
     pn = sub.add_parser("pinned")
-    pn.add_argument("--records", required=True, help="backend:seed,... benchmark recordings")
+    pn.add_argument("--records", required=True, help="SEED or BACKEND:SEED, comma-separated")
     pn.add_argument("--pin", default="chosen,held,mean,end",
                     help="chosen and/or conventions among held, mean, end")
     pn.add_argument("--out", required=True)
     lk = sub.add_parser("likelihood")
-    lk.add_argument("--records", required=True, help="backend:seed,... benchmark recordings")
+    lk.add_argument("--records", required=True, help="SEED or BACKEND:SEED, comma-separated")
     args = ap.parse_args(argv)
     if args.cmd == "likelihood":
         _records(args.records)

@@ -552,17 +552,17 @@ def summarise(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def parse_only(spec: str) -> set[tuple[str | None, int]]:
-    """``--only``: comma-separated ``SEED`` (both simulators) or ``BACKEND:SEED``; raises
-    ValueError naming the bad item."""
+def parse_only(spec: str, flag: str = "--only") -> set[tuple[str | None, int]]:
+    """``--only`` (or another ``flag`` naming recordings the same way): comma-separated
+    ``SEED`` (both simulators) or ``BACKEND:SEED``; raises ValueError naming the bad item."""
     out: set[tuple[str | None, int]] = set()
     for item in filter(None, (x.strip() for x in spec.split(","))):
         backend, _, seed = item.rpartition(":")
         if backend not in ("", "kernel", "foreign") or not seed.isdigit():
-            raise ValueError(f"--only: {item!r} is not SEED or kernel:SEED or foreign:SEED")
+            raise ValueError(f"{flag}: {item!r} is not SEED or kernel:SEED or foreign:SEED")
         out.add((backend or None, int(seed)))
     if not out:
-        raise ValueError("--only: give at least one SEED or BACKEND:SEED")
+        raise ValueError(f"{flag}: give at least one SEED or BACKEND:SEED")
     return out
 
 

@@ -38,5 +38,14 @@ def test_likelihood_refuses_a_bad_record_before_any_work(monkeypatch):
         raise AssertionError("work started")
 
     monkeypatch.setattr(mc, "likelihood", never)
-    with pytest.raises(SystemExit, match="--records .* got 'kernel:300014x'"):
+    with pytest.raises(SystemExit, match="--records: 'kernel:300014x' is not SEED"):
         mc.main(["likelihood", "--records", "foreign:300014,kernel:300014x"])
+
+
+def test_records_are_read_as_the_benchmarks_only(monkeypatch):
+    """One parser for recording lists (``parse_only``): a bare seed names both simulators."""
+    monkeypatch.syspath_prepend(str(EXPERIMENTS))
+    import mismatch_conventions as mc
+
+    assert mc._records("300014, kernel:300001") == [
+        ("foreign", 300014), ("kernel", 300001), ("kernel", 300014)]
