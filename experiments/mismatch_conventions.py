@@ -66,6 +66,10 @@ asked (the recording's ``acc_sampling`` attribute): three clean foreign false al
 all recorded ``mean`` and read otherwise, vanish when it is pinned (9.31).
 ``likelihood --records foreign:300014,foreign:240004`` prints the kinematic group's
 profile likelihood under each convention beside the recorded and the chosen one.
+``null --seeds 37400-37459 --out null.jsonl`` reads clean recordings of known convention
+(kernel ``held``; foreign ``held``, ``mean``, ``end``) with that profile beside the shipped
+choice; ``null-summary null.jsonl`` counts the wrong reads today and with the rule of
+``Settings.convention_profile`` at each lead (9.32).
 
 ``scan --seed-base 240000`` reads the convention of every recording of a read benchmark
 set with the shipped tool: the half-step and curvature terms must take none of them
@@ -435,6 +439,82 @@ def likelihood(args) -> None:
               f"{chosen}; 2 dl behind the best: {behind}", flush=True)  # fmt: skip
 
 
+#: What the null records: the kernel records ``held`` only; the foreign simulator each.
+NULL_RECORDED = {"kernel": ("held",), "foreign": _ZOH}
+
+
+def null(args) -> None:
+    """The null of ``Settings.convention_profile`` (docs/mismatch.md 9.32): clean
+    recordings of known convention (calibration seeds; the kernel's ``held``, the foreign
+    simulator's scenario recorded ``held``, ``mean`` and ``end``) read as the shipped tool
+    reads them (:func:`prepare`), with the kinematic group's profile likelihood among the
+    conventions the equation group left (:func:`convention_profile`).  Each row keeps the
+    profile, so the rule's pick at any lead is read from the rows (``null-summary``)."""
+    import tmopt.mismatch.realistic as R
+    from tmopt.mismatch.diagnose import convention_profile, prepare
+    from tmopt.mismatch.fit import data_from_recording
+    from tmopt.run.outputs import library_versions
+
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    done = set()
+    if out.exists():
+        done = {(r["backend"], r["seed"], r["recorded"])
+                for r in map(json.loads, out.read_text().splitlines())}  # fmt: skip
+    versions = library_versions()
+    todo = [(b, s, c) for s in _seeds(args.seeds) for b in args.backends.split(",")
+            for c in NULL_RECORDED[b] if (b, s, c) not in done]  # fmt: skip
+    for i, (backend, seed, conv) in enumerate(todo, 1):
+        t0 = time.process_time()
+        sc = R.draw_scenario(seed, backend)
+        sc = recorded_as(sc, conv) if backend == "foreign" else sc
+        data, _ = prepare(data_from_recording(R.realistic_recording(sc, seed=seed,
+                                                                    backend=backend)[0]))
+        ev = data.usage["acc_convention_evidence"]
+        left = ev.get("left", [])
+        behind = convention_profile(data, data.stiffness, left) if len(left) > 1 else {}
+        row = {"backend": backend, "seed": seed, "recorded": conv, "fs": sc.sample_rate,
+               "chosen": data.acc_convention, "by": ev.get("by", "undecided"), "left": left,
+               "behind": behind, "cpu_s": time.process_time() - t0, "versions": versions}
+        with out.open("a") as fh:
+            fh.write(json.dumps(row) + "\n")
+        print(f"[{i}/{len(todo)}] {backend} {seed} {conv}: chosen {row['chosen']} "
+              f"({row['by']}); profile behind {({c: round(v, 1) for c, v in behind.items()})}",
+              flush=True)  # fmt: skip
+
+
+def rule_pick(row: dict, lead: float) -> str:
+    """The convention ``Settings.convention_profile`` picks on a ``null`` row at ``lead``."""
+    behind = row["behind"]
+    if len(behind) < 2:
+        return row["chosen"]
+    best = min(behind, key=behind.get)
+    return best if min(v for c, v in behind.items() if c != best) >= lead else row["chosen"]
+
+
+def null_summary(paths: list[str], leads=(3.84, 6.63, 10.0)) -> str:
+    """Per backend and recorded convention: today's wrong reads, and the rule's wrong reads
+    and decisions at each lead."""
+    rows = [json.loads(x) for p in paths for x in Path(p).read_text().splitlines()]
+    head = " | ".join(f"rule at {v:g}: wrong / decided" for v in leads)
+    lines = [f"| backend | recorded | records | undecided by Eq. 10 | today wrong | {head} |",
+             "|---|---|---|---|---|" + "---|" * len(leads)]
+    keys = sorted({(r["backend"], r["recorded"]) for r in rows}) + [("all", "all")]
+    for b, c in keys:
+        sel = [r for r in rows
+               if (b, c) in (("all", "all"), (r["backend"], r["recorded"]))]  # fmt: skip
+        cells = []
+        for v in leads:
+            wrong = sum(rule_pick(r, v) != r["recorded"] for r in sel)
+            decided = sum(len(r["behind"]) > 1 and sorted(r["behind"].values())[1] >= v
+                          for r in sel)  # fmt: skip
+            cells.append(f"{wrong} / {decided}")
+        today = sum(r["chosen"] != r["recorded"] for r in sel)
+        undecided = sum(len(r["left"]) > 1 for r in sel)
+        lines.append(f"| {b} | {c} | {len(sel)} | {undecided} | {today} | {' | '.join(cells)} |")
+    return "\n".join(lines)
+
+
 def _records(text: str) -> list[tuple[str, int]]:
     """``--records`` read as the benchmark's ``--only`` (:func:`mismatch_realistic.parse_only`:
     ``SEED`` for both simulators, or ``BACKEND:SEED``) -> sorted [(backend, seed)], every
@@ -485,7 +565,23 @@ def main(argv: list[str] | None = None) -> int:
     pn.add_argument("--out", required=True)
     lk = sub.add_parser("likelihood")
     lk.add_argument("--records", required=True, help="SEED or BACKEND:SEED, comma-separated")
+    nl = sub.add_parser("null")
+    nl.add_argument("--seeds", required=True, help="calibration seeds a-b (< 40000)")
+    nl.add_argument("--backends", default="kernel,foreign", help="kernel and/or foreign")
+    nl.add_argument("--out", required=True)
+    ns = sub.add_parser("null-summary")
+    ns.add_argument("rows", nargs="+")
     args = ap.parse_args(argv)
+    if args.cmd == "null":
+        bad = sorted(set(args.backends.split(",")) - set(NULL_RECORDED))
+        if bad:
+            raise SystemExit(f"--backends must be among kernel, foreign; got {bad}")
+        _seeds(args.seeds)
+        null(args)
+        return 0
+    if args.cmd == "null-summary":
+        print(null_summary(args.rows))
+        return 0
     if args.cmd == "likelihood":
         _records(args.records)
         likelihood(args)

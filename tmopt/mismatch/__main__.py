@@ -63,6 +63,11 @@ def _parser() -> argparse.ArgumentParser:
                         "profile likelihood ratio, the equation noise model estimated again "
                         "under it (off by default: it can out-rank a glitch; "
                         "docs/mismatch.md 9.30)")  # fmt: skip
+    p.add_argument("--convention-profile", action=argparse.BooleanOptionalAction,
+                   default=False,
+                   help="where the Eq. 10 fit leaves the accelerometer's sampling "
+                        "convention undecided, let the kinematic group's profile likelihood "
+                        "decide when its lead is clear (docs/mismatch.md 9.32)")  # fmt: skip
     p.add_argument("--no-witness-refit", action="store_true",
                    help="read a witness-driven candidate (rotation coupling) under the "
                         "null's noise model only, not also under the alternative's (on by "
@@ -104,6 +109,7 @@ def main(argv: list[str] | None = None) -> int:
                         true_position=not args.no_true_position,
                         rails=args.rails, kin_refit=args.kin_refit,
                         kin_profile=args.kin_profile, onset_profile=args.onset_profile,
+                        convention_profile=args.convention_profile,
                         witness_refit=not args.no_witness_refit)  # fmt: skip
     dg = diagnose(data_from_recording(rec), settings)
     rep = write_report(dg, args.out, plots=not args.no_plots)

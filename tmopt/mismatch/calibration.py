@@ -42,7 +42,7 @@ from __future__ import annotations
 __all__ = ["FAMILY_ALPHA", "LOCATE_ALPHA", "AMBIGUOUS_DBIC", "ALIASED_R2", "LJUNG_BOX_LAGS",
            "SHAPE_ALPHA", "MODEL_PRECISION", "JOINT_INFLATION", "KIN_REFIT_INFLATION",
            "WITNESS_REFIT_INFLATION",
-           "KIN_STIFFNESS_VISIBLE", "LOWFREQ_NULL"]
+           "KIN_STIFFNESS_VISIBLE", "CONVENTION_LEAD", "LOWFREQ_NULL"]
 
 FAMILY_ALPHA: float = 0.01
 LOCATE_ALPHA: float = 0.01
@@ -90,6 +90,13 @@ WITNESS_REFIT_INFLATION: float = 3.95
 #: with it (:func:`tmopt.mismatch.diagnose._final_model_kinematics`; docs/mismatch.md 9.4).  Not
 #: tuned: below one sigma the change cannot move a test; above it, redoing costs only time.
 KIN_STIFFNESS_VISIBLE: float = 1.0
+
+#: The lead (``2 dl``, chi^2_1 units) by which the kinematic group's profile likelihood
+#: must prefer one accelerometer convention over every other the equation group left,
+#: for it to decide (:func:`tmopt.mismatch.diagnose.decide_convention`,
+#: ``Settings.convention_profile``; docs/mismatch.md 9.32).  Set by the null of
+#: ``experiments/mismatch_conventions.py null`` (clean recordings of known convention).
+CONVENTION_LEAD: float = 3.84
 
 #: Null distributions of the statistics of shapes living in the record's lowest bins, on
 #: clean flight-like recordings of both simulators (the 1/f^2 acceleration noise; the

@@ -157,6 +157,12 @@ class Settings:
     # candidate significant by its GLR (:func:`_best`): on the never-seen 290000 it had
     # left two storm glitches unnamed (an onset at a glitch's place; docs 9.30, 9.31)
     onset_profile: bool = False
+    # where the equation group leaves the accelerometer convention undecided, the
+    # kinematic group's profile likelihood decides when one convention leads the others
+    # by cal.CONVENTION_LEAD (:func:`decide_convention`, docs 9.32): a foreign recording
+    # reporting the step's mean, read ``held``, raised an x2 readout timing on three
+    # clean records (260007, 280012, 300014) that vanish when read ``mean``
+    convention_profile: bool = False
     # also read a witness-driven candidate (its columns from the attitude witnesses, not
     # the TM loop: rotation coupling) under the noise model estimated with it fitted
     # (:func:`_witness_alternative`, docs 9.28): a slew over half the record is taken into
@@ -175,7 +181,8 @@ class Settings:
             raise ValueError(f"noise must be 'coloured' or 'white'; got {self.noise!r}")
         for name in ("generic", "joint", "rejudge", "in_place", "shape_search",
                      "shape_placements", "pairs", "true_position", "kin_refit",
-                     "kin_profile", "onset_profile", "witness_refit"):
+                     "kin_profile", "onset_profile", "witness_refit",
+                     "convention_profile"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name} must be True or False; got {getattr(self, name)!r}")
         if self.rails not in RAILS:
@@ -1676,11 +1683,13 @@ def _refused(data: Data, settings: Settings, verdict: Verdict, reason: str,
 
 
 def prepare(data: Data, stiffness: np.ndarray | None = None,
-            nuisance: Sequence[Column] = ()) -> tuple[Data, np.ndarray]:  # fmt: skip
+            nuisance: Sequence[Column] = (),
+            settings: Settings | None = None) -> tuple[Data, np.ndarray]:  # fmt: skip
     """Align the channels' clocks, then fix the exact kinematics: the stiffness (4,) --
     ``stiffness`` when given (the final model's, :func:`diagnose`), else from a nominal
     least-squares fit of Eq. 10 -- and the accelerometer's sampling convention (with the
-    Eq. 10 columns ``nuisance`` in its test: the final model's selected effects)."""
+    Eq. 10 columns ``nuisance`` in its test: the final model's selected effects;
+    :func:`decide_convention` with ``settings``, default :class:`Settings`)."""
     data = align_force_timing(data)
     data = align_kinematics(data)
     basis = null_basis(data.geometry)
@@ -1691,7 +1700,7 @@ def prepare(data: Data, stiffness: np.ndarray | None = None,
     else:
         k = np.asarray(stiffness, float).copy()
     data.stiffness = k
-    conv, info = choose_acc_convention(data, k, nuisance)
+    conv, info = decide_convention(data, k, nuisance, settings or Settings())
     data.acc_convention, data.halfstep = conv, float(info.get("halfstep", 0.0))
     data.curvature, info["curvature_evidence"] = choose_curvature(data)
     data.__dict__.pop("_x_eq", None)
@@ -1720,6 +1729,47 @@ def prepare(data: Data, stiffness: np.ndarray | None = None,
                           f"smooth acceleration sampled at the instants; chosen from the "
                           f"data)")  # fmt: skip
     return data, basis
+
+
+def decide_convention(data: Data, k: np.ndarray, nuisance: Sequence[Column],
+                      settings: Settings) -> tuple[str, dict]:
+    """The accelerometer's sampling convention (:func:`fit.choose_acc_convention`) and its
+    evidence; with ``settings.convention_profile``, where the equation group left several
+    conventions undecided, the kinematic group's profile likelihood among them decides when
+    the best leads every other by ``cal.CONVENTION_LEAD`` (``info["profile_behind"]``:
+    each one's ``2 dl`` behind the best).  The equation group sees the conventions only
+    through the stiffness term (``~k v h/2``, below its noise at flight-like k); the
+    kinematic group's residual takes a wrong convention in as a readout timing on the
+    axis with the largest tone (docs/mismatch.md 9.31, 9.32)."""
+    conv, info = choose_acc_convention(data, k, nuisance)
+    left = info.get("left", [])
+    if not settings.convention_profile or len(left) < 2:
+        return conv, info
+    behind = convention_profile(data, k, left)
+    info["profile_behind"] = behind
+    best = min(behind, key=behind.get)
+    lead = min(v for c, v in behind.items() if c != best)
+    if lead >= cal.CONVENTION_LEAD:
+        info.update(decided=True, by=f"kinematic group's profile likelihood (lead {lead:.1f})")
+        return best, info
+    return conv, info
+
+
+def convention_profile(data: Data, k: np.ndarray, conventions: Sequence[str]) -> dict[str, float]:
+    """``2 dl`` of each convention behind the best: the nominal kinematic group's Whittle
+    log-likelihood with its noise model estimated under each convention (over the taper's
+    over-count, as :func:`_profile_ratio`), the stiffness ``k`` (4,) in the relation."""
+    ll = {}
+    for conv in conventions:
+        probe = replace(data, stiffness=np.asarray(k, float), acc_convention=conv,
+                        halfstep=0.0, notes=[])  # fmt: skip
+        probe.__dict__.pop("_x_eq", None)
+        probe.__dict__.pop("_tones", None)
+        fit, noise = _fit_kin(kinematic_target(probe), nominal_kinematic_columns(probe),
+                              probe.kin_layout, probe.fs)  # fmt: skip
+        ll[conv] = noise.whittle_loglik(fit.residual) / noise.taper_inflation()
+    top = max(ll.values())
+    return {c: 2.0 * (top - v) for c, v in ll.items()}
 
 
 def diagnose(data: Data, settings: Settings | None = None) -> Diagnosis:
@@ -1778,8 +1828,8 @@ def _diagnose_data(data: Data, settings: Settings, verdict: Verdict,
     model's kinematics when they change (:func:`_final_model_kinematics`)."""
     raw, stiffness, nuisance, moved = data, None, [], []
     for attempt in range(1 + MAX_STIFFNESS_REDOS):
-        dg = _diagnose_prepared(*prepare(copy.deepcopy(raw), stiffness, nuisance), settings,
-                                verdict, sat)  # fmt: skip
+        dg = _diagnose_prepared(*prepare(copy.deepcopy(raw), stiffness, nuisance, settings),
+                                settings, verdict, sat)  # fmt: skip
         if dg.refused or attempt == MAX_STIFFNESS_REDOS:
             break
         change = _final_model_kinematics(dg)
@@ -1850,7 +1900,7 @@ def _final_model_kinematics(dg: Diagnosis) -> tuple[np.ndarray, list[Column], st
     white = dg.after.kin_noise.whiten  # the kinematic group's own noise model
     res = white(dg.after.kin_fit.residual)
     energy = np.sum(white(delta) ** 2, axis=1) / np.maximum(np.mean(res**2, axis=1), 1e-300)
-    conv = choose_acc_convention(data, new, nuisance)[0]
+    conv = decide_convention(data, new, nuisance, dg.settings)[0]
     a = int(np.argmax(energy))
     if float(energy[a]) < cal.KIN_STIFFNESS_VISIBLE and conv == data.acc_convention:
         return None

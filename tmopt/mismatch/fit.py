@@ -951,7 +951,9 @@ def choose_acc_convention(data: Data, k: np.ndarray,
     diagnosis redoes its kinematics with the final model (an unmodelled gain or coupling
     in step with the motion otherwise decides between the stiffness terms).
     ``info``: ``equation_lr_mean_vs_held`` and ``equation_lr_end_vs_held`` (positive:
-    ``held`` fits worse), each with ``_delay_free`` for the first pass.
+    ``held`` fits worse), each with ``_delay_free`` for the first pass; ``left``: the
+    conventions the equation group left undecided (absent where it or the half-step
+    term decided).
     """
     if data.usage.get("acc_convention_from") == "attribute":
         return data.acc_convention, {"from": "attribute", "halfstep": data.halfstep}
@@ -994,6 +996,7 @@ def choose_acc_convention(data: Data, k: np.ndarray,
     # undecided: held if it is left (as before), else the one that fits the equation best
     conv, kin = _kinematic_convention(data, k, left, "held" if "held" in left else fittest)
     info.update(kin)
+    info["left"] = list(left)  # what the equation group could not tell apart
     return conv, info
 
 

@@ -326,6 +326,7 @@ def _settings(dg: Diagnosis) -> dict:
             "rails": dg.settings.rails, "kin_refit": dg.settings.kin_refit,
             "kin_profile": dg.settings.kin_profile,
             "onset_profile": dg.settings.onset_profile,
+            "convention_profile": dg.settings.convention_profile,
             "witness_refit": dg.settings.witness_refit}  # fmt: skip
 
 
