@@ -186,15 +186,16 @@ def rewritten(seed: int, convention: str, rewrite: str, fixed: dict | None = Non
 
 
 def diagnose_clean(seed: int, convention: str, rewrite: str = "none",
-                   fixed: dict | None = None) -> dict:  # fmt: skip
-    """One clean foreign recording with its scenario's convention replaced -> a row."""
-    from tmopt.mismatch.diagnose import diagnose
+                   fixed: dict | None = None, settings: dict | None = None) -> dict:
+    """One clean foreign recording with its scenario's convention replaced -> a row
+    (``settings``: fields of :class:`Settings` the diagnosis takes)."""
+    from tmopt.mismatch.diagnose import Settings, diagnose
     from tmopt.mismatch.fit import data_from_recording
     from tmopt.mismatch.report import build_report
 
     sc, rec = rewritten(seed, convention, rewrite, fixed)
     t0 = time.process_time()
-    rep = build_report(diagnose(data_from_recording(rec)))
+    rep = build_report(diagnose(data_from_recording(rec), Settings(**(settings or {}))))
     used = rep["data_used"]
     unexplained = (rep.get("unexplained_at") or {}).get("channels", []) \
         if rep.get("unexplained") else []  # fmt: skip
@@ -251,20 +252,30 @@ def survey(args) -> None:
     out.parent.mkdir(parents=True, exist_ok=True)
     done = set()
     if out.exists():
-        done = {(r["seed"], r["convention"], r.get("rewrite", "none"), r["tool"])
+        done = {(r["seed"], r["convention"], r.get("rewrite", "none"), r["tool"],
+                 json.dumps(r.get("settings", {}), sort_keys=True))
                 for r in map(json.loads, out.read_text().splitlines())}  # fmt: skip
     # one --out per set of fixed fields: the resume key does not hold them
     versions = library_versions()
+    asked = json.dumps(args.settings, sort_keys=True)
     todo = [(s, c) for s in _seeds(args.seeds) for c in args.conventions.split(",")
-            if (s, c, args.rewrite, args.tool) not in done]  # fmt: skip
+            if (s, c, args.rewrite, args.tool, asked) not in done]  # fmt: skip
     for i, (seed, conv) in enumerate(todo, 1):
-        row = {**diagnose_clean(seed, conv, args.rewrite, _fixed(args)), "tool": args.tool,
-               "fixed": _fixed(args), "versions": versions}  # fmt: skip
+        row = {**diagnose_clean(seed, conv, args.rewrite, _fixed(args), args.settings),
+               "tool": args.tool, "settings": args.settings, "fixed": _fixed(args),
+               "versions": versions}  # fmt: skip
         with out.open("a") as fh:
             fh.write(json.dumps(row) + "\n")
         print(f"[{i}/{len(todo)}] {seed} {conv}: chosen {row['chosen']} ({row['by']}); "
               f"{'ALARM ' + str(row['names'] + row['unexplained']) if row['alarm'] else 'clean'}",
               flush=True)  # fmt: skip
+
+
+def _tool(row: dict) -> str:
+    """A survey row's tool with the settings it diagnosed with (``curvature
+    convention_profile=True``)."""
+    extra = " ".join(f"{k}={v}" for k, v in sorted(row.get("settings", {}).items()))
+    return f"{row['tool']} {extra}".strip()
 
 
 def summary(paths: list[str]) -> str:
@@ -273,9 +284,9 @@ def summary(paths: list[str]) -> str:
              "chosen held / mean / end / with a half-step term [min, max] | "
              "with a curvature term [min, max] |",
              "|---|---|---|---|---|---|---|"]  # fmt: skip
-    keys = sorted({(r["tool"], r["convention"], r.get("rewrite", "none")) for r in rows})
+    keys = sorted({(_tool(r), r["convention"], r.get("rewrite", "none")) for r in rows})
     for tool, conv, rw in keys:
-        sel = [r for r in rows if (r["tool"], r["convention"], r.get("rewrite", "none"))
+        sel = [r for r in rows if (_tool(r), r["convention"], r.get("rewrite", "none"))
                == (tool, conv, rw)]  # fmt: skip
         chosen = Counter(r["chosen"] if not r.get("halfstep") else "halfstep" for r in sel)
         steps = sorted(round(r["halfstep"], 3) for r in sel if r.get("halfstep"))
@@ -285,7 +296,7 @@ def summary(paths: list[str]) -> str:
                      f"{chosen['halfstep']} {steps[:1] + steps[-1:] if steps else ''} | "
                      f"{len(curv)} {curv[:1] + curv[-1:] if curv else ''} |")
     alarms = [r for r in rows if r["alarm"]]
-    lines += ["", "Alarms:"] + [f"- {r['tool']} {r['convention']} {r.get('rewrite', 'none')} "
+    lines += ["", "Alarms:"] + [f"- {_tool(r)} {r['convention']} {r.get('rewrite', 'none')} "
                                 f"{r['seed']} (fs {r['fs']}): {r['names'] + r['unexplained']}"
                                 for r in alarms]  # fmt: skip
     return "\n".join(lines)
@@ -543,6 +554,9 @@ def main(argv: list[str] | None = None) -> int:
     sv.add_argument("--duration", type=float, help="fixed record length [s], 600-7200")
     sv.add_argument("--sample-rate", type=float, help="fixed rate [Hz], 1-20")
     sv.add_argument("--stiffness", help="fixed k of x1,x2,y1,y2 [s^-2], each |k| <= 1e-5")
+    sv.add_argument("--setting", action="append", default=None, metavar="NAME=VALUE",
+                    help="diagnose with this tool setting (a field of Settings, e.g. "
+                         "convention_profile=true; repeatable; part of the resume key)")
     sv.add_argument("--out", required=True)
     sm = sub.add_parser("summary")
     sm.add_argument("rows", nargs="+")
@@ -621,6 +635,12 @@ def main(argv: list[str] | None = None) -> int:
             raise SystemExit(f"--rewrite must be one of {REWRITES} with D in (0, 1); "
                              f"got {args.rewrite!r}")  # fmt: skip
         _check_fixed(args)
+        from mismatch_realistic import parse_settings
+
+        try:
+            args.settings = parse_settings(args.setting)
+        except ValueError as exc:
+            raise SystemExit(str(exc)) from None
         if kind == "end-from-held" and args.conventions != "held":
             raise SystemExit("--rewrite end-from-held rewrites a held accelerometer: "
                              f"--conventions must be held; got {args.conventions!r}")
