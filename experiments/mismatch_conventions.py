@@ -333,10 +333,14 @@ def scan(args) -> None:
     each recording of a benchmark set, made as the benchmark makes it (the SNR scaler of
     today, the read sets' from 130000 on) -- whether the half-step term takes any
     recording they hold (where it takes none, the diagnosis is the one before it:
-    nothing else changed)."""
+    nothing else changed).  Each row also keeps the kinematic group's profile among the
+    conventions the equation group left (``behind``) and the convention
+    ``Settings.convention_profile`` reads (``rule``, docs 9.32); ``--category`` keeps one
+    category of the set (``clean``, ...)."""
     from mismatch_realistic import _made, cases
 
-    from tmopt.mismatch.diagnose import prepare
+    from tmopt.mismatch import calibration as cal
+    from tmopt.mismatch.diagnose import convention_profile, prepare
     from tmopt.mismatch.fit import data_from_recording
     from tmopt.mismatch.realistic import SCALER_VERSION
 
@@ -348,7 +352,8 @@ def scan(args) -> None:
     backends = ("kernel", "foreign") if args.backend == "both" else (args.backend,)
     todo = [c for b in backends
             for c in cases(b, args.seed_base, False, SCALER_VERSION)
-            if (c["backend"], c["seed"]) not in done]  # fmt: skip
+            if (c["backend"], c["seed"]) not in done
+            and args.category in ("all", c["category"])]  # fmt: skip
     for i, case in enumerate(todo, 1):
         try:
             rec, truth = _made(case)[:2]
@@ -361,16 +366,22 @@ def scan(args) -> None:
             continue
         data, _ = prepare(data_from_recording(rec))
         ev = data.usage.get("acc_convention_evidence", {}).get("halfstep_evidence", {})
-        row = {"backend": case["backend"], "seed": case["seed"],
+        left = data.usage.get("acc_convention_evidence", {}).get("left", [])
+        behind = convention_profile(data, data.stiffness, left) if len(left) > 1 else {}
+        row = {"backend": case["backend"], "seed": case["seed"], "category": case["category"],
                "recorded": truth["scenario"].get("acc_convention"),
-               "chosen": data.acc_convention, "halfstep": data.halfstep,
+               "chosen": data.acc_convention, "left": left, "behind": behind,
+               "rule": rule_pick({"chosen": data.acc_convention, "behind": behind},
+                                 cal.CONVENTION_LEAD),
+               "halfstep": data.halfstep,
                "evidence": ev.get("combined"), "curvature": data.curvature,
                "curvature_evidence": data.usage.get("acc_convention_evidence", {}).get(
                    "curvature_evidence", {}).get("combined")}  # fmt: skip
         with out.open("a") as fh:
             fh.write(json.dumps(row) + "\n")
         print(f"[{i}/{len(todo)}] {case['backend']} {case['seed']}: recorded "
-              f"{row['recorded']}, chosen {row['chosen']}, half-step {row['halfstep']} "
+              f"{row['recorded']}, chosen {row['chosen']} (rule: {row['rule']}), half-step "
+              f"{row['halfstep']} "
               f"({row['evidence']}), curvature {row['curvature']} "
               f"({row['curvature_evidence']})", flush=True)
 
@@ -569,6 +580,8 @@ def main(argv: list[str] | None = None) -> int:
     sc = sub.add_parser("scan")
     sc.add_argument("--seed-base", type=int, required=True, help="a read set, e.g. 240000")
     sc.add_argument("--backend", choices=["kernel", "foreign", "both"], default="both")
+    sc.add_argument("--category", default="all",
+                    help="all, or one category of the set (clean, catalogue, pair, ...)")
     sc.add_argument("--out", required=True)
     bs = sub.add_parser("bench-summary")
     bs.add_argument("rows")
@@ -616,9 +629,9 @@ def main(argv: list[str] | None = None) -> int:
         bench(args)
         return 0
     if args.cmd == "scan":
-        if args.seed_base % 10000 or not 130000 <= args.seed_base <= 250000:
+        if args.seed_base % 10000 or not 130000 <= args.seed_base <= 300000:
             raise SystemExit("--seed-base must be a read benchmark set of today's SNR scaler, "
-                             f"130000-250000 in steps of 10000; got {args.seed_base}")
+                             f"130000-300000 in steps of 10000; got {args.seed_base}")
         scan(args)
         return 0
     if args.cmd == "bench-summary":

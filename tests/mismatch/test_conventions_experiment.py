@@ -106,3 +106,16 @@ def test_null_summary_counts_the_rule_at_each_lead(monkeypatch, tmp_path):
     # all rows: 4 records, 3 undecided by Eq. 10, 2 read wrong today; at 3.84 1 wrong of
     # 2 decided, at 6.63 2 wrong of 1 decided
     assert "| all | all | 4 | 3 | 2 | 1 / 2 | 2 / 1 |" in table
+
+
+def test_scan_refuses_an_unread_set_before_any_work(monkeypatch):
+    """``scan`` reads read sets only (130000-300000): a never-seen draw is not spent."""
+    monkeypatch.syspath_prepend(str(EXPERIMENTS))
+    import mismatch_conventions as mc
+
+    def never(_):
+        raise AssertionError("work started")
+
+    monkeypatch.setattr(mc, "scan", never)
+    with pytest.raises(SystemExit, match="--seed-base must be a read benchmark set"):
+        mc.main(["scan", "--seed-base", "310000", "--out", "rows.jsonl"])
