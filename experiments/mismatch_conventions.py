@@ -340,7 +340,7 @@ def scan(args) -> None:
     from mismatch_realistic import _made, cases
 
     from tmopt.mismatch import calibration as cal
-    from tmopt.mismatch.diagnose import convention_profile, prepare
+    from tmopt.mismatch.diagnose import Settings, convention_profile, prepare
     from tmopt.mismatch.fit import data_from_recording
     from tmopt.mismatch.realistic import SCALER_VERSION
 
@@ -364,7 +364,8 @@ def scan(args) -> None:
                 fh.write(json.dumps(row) + "\n")
             print(f"[{i}/{len(todo)}] {case['backend']} {case['seed']}: {row['error']}")
             continue
-        data, _ = prepare(data_from_recording(rec))
+        # read without the rule: ``chosen`` is the read before it, ``rule`` the read with it
+        data, _ = prepare(data_from_recording(rec), settings=Settings(convention_profile=False))
         ev = data.usage.get("acc_convention_evidence", {}).get("halfstep_evidence", {})
         left = data.usage.get("acc_convention_evidence", {}).get("left", [])
         behind = convention_profile(data, data.stiffness, left) if len(left) > 1 else {}
@@ -468,12 +469,13 @@ NULL_RECORDED = {"kernel": ("held",), "foreign": _ZOH}
 def null(args) -> None:
     """The null of ``Settings.convention_profile`` (docs/mismatch.md 9.32): clean
     recordings of known convention (calibration seeds; the kernel's ``held``, the foreign
-    simulator's scenario recorded ``held``, ``mean`` and ``end``) read as the shipped tool
-    reads them (:func:`prepare`), with the kinematic group's profile likelihood among the
+    simulator's scenario recorded ``held``, ``mean`` and ``end``) read as the tool read them
+    before the rule (:func:`prepare`, ``convention_profile`` off), with the kinematic
+    group's profile likelihood among the
     conventions the equation group left (:func:`convention_profile`).  Each row keeps the
     profile, so the rule's pick at any lead is read from the rows (``null-summary``)."""
     import tmopt.mismatch.realistic as R
-    from tmopt.mismatch.diagnose import convention_profile, prepare
+    from tmopt.mismatch.diagnose import Settings, convention_profile, prepare
     from tmopt.mismatch.fit import data_from_recording
     from tmopt.run.outputs import library_versions
 
@@ -490,8 +492,9 @@ def null(args) -> None:
         t0 = time.process_time()
         sc = R.draw_scenario(seed, backend)
         sc = recorded_as(sc, conv) if backend == "foreign" else sc
-        data, _ = prepare(data_from_recording(R.realistic_recording(sc, seed=seed,
-                                                                    backend=backend)[0]))
+        rec = R.realistic_recording(sc, seed=seed, backend=backend)[0]
+        # read without the rule (``chosen``); the rule's read follows from ``behind``
+        data, _ = prepare(data_from_recording(rec), settings=Settings(convention_profile=False))
         ev = data.usage["acc_convention_evidence"]
         left = ev.get("left", [])
         behind = convention_profile(data, data.stiffness, left) if len(left) > 1 else {}

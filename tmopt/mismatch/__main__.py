@@ -64,10 +64,11 @@ def _parser() -> argparse.ArgumentParser:
                         "under it (off by default: it can out-rank a glitch; "
                         "docs/mismatch.md 9.30)")  # fmt: skip
     p.add_argument("--convention-profile", action=argparse.BooleanOptionalAction,
-                   default=False,
+                   default=True,
                    help="where the Eq. 10 fit leaves the accelerometer's sampling "
                         "convention undecided, let the kinematic group's profile likelihood "
-                        "decide when its lead is clear (docs/mismatch.md 9.32)")  # fmt: skip
+                        "decide when its lead is clear (on by default; docs/mismatch.md "
+                        "9.32)")  # fmt: skip
     p.add_argument("--no-witness-refit", action="store_true",
                    help="read a witness-driven candidate (rotation coupling) under the "
                         "null's noise model only, not also under the alternative's (on by "

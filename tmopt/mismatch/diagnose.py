@@ -160,9 +160,11 @@ class Settings:
     # where the equation group leaves the accelerometer convention undecided, the
     # kinematic group's profile likelihood decides when one convention leads the others
     # by cal.CONVENTION_LEAD (:func:`decide_convention`, docs 9.32): a foreign recording
-    # reporting the step's mean, read ``held``, raised an x2 readout timing on three
-    # clean records (260007, 280012, 300014) that vanish when read ``mean``
-    convention_profile: bool = False
+    # reporting the step's mean, read ``held``, raised a readout timing on clean records
+    # (260007, 280012, 300014, 310016) that vanishes when read ``mean``.  On since stop
+    # 56: null 0 wrong of 65 decisions; on never-seen rows (300000's second half, the
+    # clean foreign of 310000 and 320000) one false alarm fewer and none more
+    convention_profile: bool = True
     # also read a witness-driven candidate (its columns from the attitude witnesses, not
     # the TM loop: rotation coupling) under the noise model estimated with it fitted
     # (:func:`_witness_alternative`, docs 9.28): a slew over half the record is taken into
