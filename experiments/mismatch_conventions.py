@@ -244,17 +244,23 @@ def _fixed(args) -> dict:
     return {**out, "gaps": ()} if out else out
 
 
+def _rows_out(path: str, key) -> tuple[Path, set]:
+    """``--out`` made ready (its folder created) and the resume keys ``key(row)`` of the
+    rows it holds already (JSON lines; empty for a new file)."""
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if not out.exists():
+        return out, set()
+    return out, {key(r) for r in map(json.loads, out.read_text().splitlines())}
+
+
 def survey(args) -> None:
     from tmopt.run.outputs import library_versions
 
     _set_tool(args.tool)
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    done = set()
-    if out.exists():
-        done = {(r["seed"], r["convention"], r.get("rewrite", "none"), r["tool"],
-                 json.dumps(r.get("settings", {}), sort_keys=True))
-                for r in map(json.loads, out.read_text().splitlines())}  # fmt: skip
+    out, done = _rows_out(args.out, lambda r: (
+        r["seed"], r["convention"], r.get("rewrite", "none"), r["tool"],
+        json.dumps(r.get("settings", {}), sort_keys=True)))  # fmt: skip
     # one --out per set of fixed fields: the resume key does not hold them
     versions = library_versions()
     asked = json.dumps(args.settings, sort_keys=True)
@@ -344,11 +350,7 @@ def scan(args) -> None:
     from tmopt.mismatch.fit import data_from_recording
     from tmopt.mismatch.realistic import SCALER_VERSION
 
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    done = set()
-    if out.exists():
-        done = {(r["backend"], r["seed"]) for r in map(json.loads, out.read_text().splitlines())}
+    out, done = _rows_out(args.out, lambda r: (r["backend"], r["seed"]))
     backends = ("kernel", "foreign") if args.backend == "both" else (args.backend,)
     todo = [c for b in backends
             for c in cases(b, args.seed_base, False, SCALER_VERSION)
@@ -399,12 +401,7 @@ def pinned(args) -> None:
     from tmopt.mismatch.report import build_report
     from tmopt.run.outputs import library_versions
 
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    done = set()
-    if out.exists():
-        done = {(r["backend"], r["seed"], r["pin"])
-                for r in map(json.loads, out.read_text().splitlines())}  # fmt: skip
+    out, done = _rows_out(args.out, lambda r: (r["backend"], r["seed"], r["pin"]))
     versions = library_versions()
     for backend, seed in _records(args.records):
         rec, truth = case_recording(backend, seed)
@@ -479,12 +476,7 @@ def null(args) -> None:
     from tmopt.mismatch.fit import data_from_recording
     from tmopt.run.outputs import library_versions
 
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    done = set()
-    if out.exists():
-        done = {(r["backend"], r["seed"], r["recorded"])
-                for r in map(json.loads, out.read_text().splitlines())}  # fmt: skip
+    out, done = _rows_out(args.out, lambda r: (r["backend"], r["seed"], r["recorded"]))
     versions = library_versions()
     todo = [(b, s, c) for s in _seeds(args.seeds) for b in args.backends.split(",")
             for c in NULL_RECORDED[b] if (b, s, c) not in done]  # fmt: skip
@@ -538,6 +530,14 @@ def null_summary(paths: list[str], leads=(3.84, 6.63, 10.0)) -> str:
         undecided = sum(len(r["left"]) > 1 for r in sel)
         lines.append(f"| {b} | {c} | {len(sel)} | {undecided} | {today} | {' | '.join(cells)} |")
     return "\n".join(lines)
+
+
+def _among(flag: str, text: str, allowed: tuple[str, ...]) -> None:
+    """A comma-separated ``flag`` whose items must be among ``allowed``: SystemExit naming
+    it and the ones that are not."""
+    bad = sorted(set(text.split(",")) - set(allowed))
+    if bad:
+        raise SystemExit(f"{flag} must be among {', '.join(allowed)}; got {bad}")
 
 
 def _records(text: str) -> list[tuple[str, int]]:
@@ -603,9 +603,7 @@ def main(argv: list[str] | None = None) -> int:
     ns.add_argument("rows", nargs="+")
     args = ap.parse_args(argv)
     if args.cmd == "null":
-        bad = sorted(set(args.backends.split(",")) - set(NULL_RECORDED))
-        if bad:
-            raise SystemExit(f"--backends must be among kernel, foreign; got {bad}")
+        _among("--backends", args.backends, tuple(NULL_RECORDED))
         _seeds(args.seeds)
         null(args)
         return 0
@@ -617,9 +615,7 @@ def main(argv: list[str] | None = None) -> int:
         likelihood(args)
         return 0
     if args.cmd == "pinned":
-        bad = sorted(set(args.pin.split(",")) - {"chosen", *_ZOH})
-        if bad:
-            raise SystemExit(f"--pin must be among chosen, {', '.join(_ZOH)}; got {bad}")
+        _among("--pin", args.pin, ("chosen", *_ZOH))
         _records(args.records)
         pinned(args)
         return 0
