@@ -346,8 +346,6 @@ def scan(args) -> None:
     from mismatch_realistic import _made, cases
 
     from tmopt.mismatch import calibration as cal
-    from tmopt.mismatch.diagnose import Settings, convention_profile, prepare
-    from tmopt.mismatch.fit import data_from_recording
     from tmopt.mismatch.realistic import SCALER_VERSION
 
     out, done = _rows_out(args.out, lambda r: (r["backend"], r["seed"]))
@@ -366,11 +364,8 @@ def scan(args) -> None:
                 fh.write(json.dumps(row) + "\n")
             print(f"[{i}/{len(todo)}] {case['backend']} {case['seed']}: {row['error']}")
             continue
-        # read without the rule: ``chosen`` is the read before it, ``rule`` the read with it
-        data, _ = prepare(data_from_recording(rec), settings=Settings(convention_profile=False))
+        data, left, behind = read_before_rule(rec)  # ``rule``: the read with it
         ev = data.usage.get("acc_convention_evidence", {}).get("halfstep_evidence", {})
-        left = data.usage.get("acc_convention_evidence", {}).get("left", [])
-        behind = convention_profile(data, data.stiffness, left) if len(left) > 1 else {}
         row = {"backend": case["backend"], "seed": case["seed"], "category": case["category"],
                "recorded": truth["scenario"].get("acc_convention"),
                "chosen": data.acc_convention, "left": left, "behind": behind,
@@ -432,31 +427,32 @@ def pinned(args) -> None:
 
 def likelihood(args) -> None:
     """Benchmark recordings (``backend:seed``) read under each accelerometer convention
-    (pinned by ``acc_sampling``): the kinematic group's nominal Whittle log-likelihood,
-    its noise model estimated under each, over the taper's over-count (the profile
-    likelihood of :func:`tmopt.mismatch.diagnose._profile_ratio`); printed as ``2 dl``
+    (:func:`tmopt.mismatch.diagnose.convention_profile`: the kinematic group's nominal
+    Whittle log-likelihood, its noise model estimated under each); printed as ``2 dl``
     behind the best convention, beside the recorded one and the one the tool chose
-    (docs/mismatch.md 9.31)."""
+    before ``convention_profile`` (docs/mismatch.md 9.31)."""
     from mismatch_realistic import case_recording
-
-    from tmopt.mismatch.diagnose import Settings, fit_state, prepare
-    from tmopt.mismatch.fit import ACC_ATTRIBUTE, data_from_recording
 
     for backend, seed in _records(args.records):
         rec, truth = case_recording(backend, seed)
-        ll = {}
-        for conv in _ZOH:
-            rec.attrs[ACC_ATTRIBUTE] = conv
-            data, basis = prepare(data_from_recording(rec))
-            st = fit_state(data, basis, [], [], False, Settings())
-            ll[conv] = st.kin_noise.whittle_loglik(st.kin_fit.residual) / \
-                st.kin_noise.taper_inflation()  # fmt: skip
-        rec.attrs.pop(ACC_ATTRIBUTE, None)
-        chosen = prepare(data_from_recording(rec))[0].acc_convention
-        best = max(ll.values())
-        behind = {c: round(2 * (best - v), 1) for c, v in ll.items()}
+        data, _, behind = read_before_rule(rec, _ZOH)
+        behind = {c: round(v, 1) for c, v in behind.items()}
         print(f"{backend} {seed}: recorded {truth['scenario'].get('acc_convention')}, chosen "
-              f"{chosen}; 2 dl behind the best: {behind}", flush=True)  # fmt: skip
+              f"{data.acc_convention}; 2 dl behind the best: {behind}", flush=True)  # fmt: skip
+
+
+def read_before_rule(rec, among=None):
+    """``rec`` prepared as the tool read it before ``Settings.convention_profile`` ->
+    (data, the conventions the equation group left, the kinematic profile among
+    ``among`` -- default those left -- or {} where fewer than two are compared)."""
+    from tmopt.mismatch.diagnose import Settings, convention_profile, prepare
+    from tmopt.mismatch.fit import data_from_recording
+
+    data, _ = prepare(data_from_recording(rec), settings=Settings(convention_profile=False))
+    left = data.usage["acc_convention_evidence"].get("left", [])
+    among = left if among is None else among
+    behind = convention_profile(data, data.stiffness, among) if len(among) > 1 else {}
+    return data, left, behind
 
 
 #: What the null records: the kernel records ``held`` only; the foreign simulator each.
@@ -472,8 +468,6 @@ def null(args) -> None:
     conventions the equation group left (:func:`convention_profile`).  Each row keeps the
     profile, so the rule's pick at any lead is read from the rows (``null-summary``)."""
     import tmopt.mismatch.realistic as R
-    from tmopt.mismatch.diagnose import Settings, convention_profile, prepare
-    from tmopt.mismatch.fit import data_from_recording
     from tmopt.run.outputs import library_versions
 
     out, done = _rows_out(args.out, lambda r: (r["backend"], r["seed"], r["recorded"]))
@@ -484,12 +478,10 @@ def null(args) -> None:
         t0 = time.process_time()
         sc = R.draw_scenario(seed, backend)
         sc = recorded_as(sc, conv) if backend == "foreign" else sc
-        rec = R.realistic_recording(sc, seed=seed, backend=backend)[0]
-        # read without the rule (``chosen``); the rule's read follows from ``behind``
-        data, _ = prepare(data_from_recording(rec), settings=Settings(convention_profile=False))
+        # ``chosen``: the read before the rule; the rule's read follows from ``behind``
+        data, left, behind = read_before_rule(R.realistic_recording(sc, seed=seed,
+                                                                    backend=backend)[0])
         ev = data.usage["acc_convention_evidence"]
-        left = ev.get("left", [])
-        behind = convention_profile(data, data.stiffness, left) if len(left) > 1 else {}
         row = {"backend": backend, "seed": seed, "recorded": conv, "fs": sc.sample_rate,
                "chosen": data.acc_convention, "by": ev.get("by", "undecided"), "left": left,
                "behind": behind, "cpu_s": time.process_time() - t0, "versions": versions}
@@ -502,16 +494,16 @@ def null(args) -> None:
 
 def rule_pick(row: dict, lead: float) -> str:
     """The convention ``Settings.convention_profile`` picks on a ``null`` row at ``lead``."""
-    behind = row["behind"]
-    if len(behind) < 2:
-        return row["chosen"]
-    best = min(behind, key=behind.get)
-    return best if min(v for c, v in behind.items() if c != best) >= lead else row["chosen"]
+    from tmopt.mismatch.diagnose import profile_pick
+
+    return profile_pick(row["behind"], lead) or row["chosen"]
 
 
 def null_summary(paths: list[str], leads=(3.84, 6.63, 10.0)) -> str:
     """Per backend and recorded convention: today's wrong reads, and the rule's wrong reads
     and decisions at each lead."""
+    from tmopt.mismatch.diagnose import profile_pick
+
     rows = [json.loads(x) for p in paths for x in Path(p).read_text().splitlines()]
     head = " | ".join(f"rule at {v:g}: wrong / decided" for v in leads)
     lines = [f"| backend | recorded | records | undecided by Eq. 10 | today wrong | {head} |",
@@ -523,8 +515,7 @@ def null_summary(paths: list[str], leads=(3.84, 6.63, 10.0)) -> str:
         cells = []
         for v in leads:
             wrong = sum(rule_pick(r, v) != r["recorded"] for r in sel)
-            decided = sum(len(r["behind"]) > 1 and sorted(r["behind"].values())[1] >= v
-                          for r in sel)  # fmt: skip
+            decided = sum(profile_pick(r["behind"], v) is not None for r in sel)
             cells.append(f"{wrong} / {decided}")
         today = sum(r["chosen"] != r["recorded"] for r in sel)
         undecided = sum(len(r["left"]) > 1 for r in sel)

@@ -1749,12 +1749,21 @@ def decide_convention(data: Data, k: np.ndarray, nuisance: Sequence[Column],
         return conv, info
     behind = convention_profile(data, k, left)
     info["profile_behind"] = behind
-    best = min(behind, key=behind.get)
+    best = profile_pick(behind, cal.CONVENTION_LEAD)
+    if best is None:
+        return conv, info
     lead = min(v for c, v in behind.items() if c != best)
-    if lead >= cal.CONVENTION_LEAD:
-        info.update(decided=True, by=f"kinematic group's profile likelihood (lead {lead:.1f})")
-        return best, info
-    return conv, info
+    info.update(decided=True, by=f"kinematic group's profile likelihood (lead {lead:.1f})")
+    return best, info
+
+
+def profile_pick(behind: dict[str, float], lead: float) -> str | None:
+    """The convention whose profile (``2 dl`` behind the best, :func:`convention_profile`)
+    leads every other by ``lead``; None where none does or fewer than two were compared."""
+    if len(behind) < 2:
+        return None
+    best = min(behind, key=behind.get)
+    return best if min(v for c, v in behind.items() if c != best) >= lead else None
 
 
 def convention_profile(data: Data, k: np.ndarray, conventions: Sequence[str]) -> dict[str, float]:
