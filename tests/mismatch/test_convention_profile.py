@@ -49,3 +49,11 @@ def test_the_equation_groups_decision_is_left_alone():
 def test_convention_profile_must_be_a_flag():
     with pytest.raises(ValueError, match="convention_profile must be True or False"):
         Settings(convention_profile="yes")
+
+
+def test_profile_pick_needs_a_lead_over_every_other():
+    from tmopt.mismatch.diagnose import profile_pick
+
+    assert profile_pick({"held": 0.0, "mean": 5.0, "end": 12.0}, 3.84) == "held"
+    assert profile_pick({"held": 0.0, "mean": 5.0, "end": 3.0}, 3.84) is None  # end is near
+    assert profile_pick({"mean": 0.0}, 3.84) is None  # nothing to compare
