@@ -1,7 +1,7 @@
 """experiments/mismatch_channel_ties.py (docs/mismatch.md 9.7, thirty-third run): a named
 effect with the same effect on another channel within AMBIGUOUS_DBIC is classed by where
-the truth is, once per report name; experiments/mismatch_length_scaling.py refuses bad
-input in one line before any recording is made."""
+the truth is, once per report name; experiments/mismatch_length_scaling.py and
+mismatch_first_step.py refuse bad input in one line before any recording is made."""
 
 from __future__ import annotations
 
@@ -66,3 +66,23 @@ def test_length_scaling_refuses_bad_input_before_any_work(monkeypatch, capsys, a
         mls.main(args)
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert named in err
+
+
+@pytest.mark.parametrize(("args", "named"), [
+    (["--records", "340140"], "--records"),
+    (["--records", "moon:3"], "--records"),
+    (["--records", "kernel:340140", "--top", "0"], "--top"),
+    (["--records", "kernel:340140", "--setting", "nonsense=1"], "--setting"),
+])  # fmt: skip
+def test_first_step_refuses_bad_input_before_any_work(monkeypatch, args, named):
+    monkeypatch.syspath_prepend(str(EXPERIMENTS))
+    import mismatch_first_step
+    import mismatch_realistic
+
+    def never(*_):
+        raise AssertionError("work started")
+
+    monkeypatch.setattr(mismatch_realistic, "case_recording", never)
+    with pytest.raises(SystemExit, match=named) as exc:
+        mismatch_first_step.main(args)
+    assert "\n" not in str(exc.value)
