@@ -532,20 +532,10 @@ def _among(flag: str, text: str, allowed: tuple[str, ...]) -> None:
 
 
 def _records(text: str) -> list[tuple[str, int]]:
-    """``--records`` read as the benchmark's ``--only`` (:func:`mismatch_realistic.parse_only`:
-    ``SEED`` for both simulators, or ``BACKEND:SEED``) -> sorted [(backend, seed)], every
-    seed a benchmark seed (>= 40000); a bad item raises SystemExit naming it."""
-    from mismatch_realistic import parse_only
+    """``--records`` read by :func:`mismatch_realistic.parse_records`."""
+    from mismatch_realistic import parse_records
 
-    try:
-        keys = parse_only(text, "--records")
-    except ValueError as exc:
-        raise SystemExit(str(exc)) from None
-    low = sorted(seed for _, seed in keys if seed < 40000)
-    if low:
-        raise SystemExit(f"--records: seeds must be benchmark seeds (>= 40000); got {low}")
-    both = ("kernel", "foreign")
-    return sorted({(b, seed) for backend, seed in keys for b in ((backend,) if backend else both)})
+    return parse_records(text)
 
 
 def main(argv: list[str] | None = None) -> int:

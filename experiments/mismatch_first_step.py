@@ -24,21 +24,20 @@ def _row(e) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
-    from mismatch_realistic import case_recording, parse_only, parse_settings
+    from mismatch_realistic import case_recording, parse_records, parse_settings
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--records", required=True, help="BACKEND:SEED, comma-separated")
+    ap.add_argument("--records", required=True,
+                    help="SEED (both simulators) or BACKEND:SEED, comma-separated")
     ap.add_argument("--match", default="", help="also list every candidate key containing this")
     ap.add_argument("--top", type=int, default=8)
     ap.add_argument("--setting", action="append", help="NAME=VALUE (a diagnose.Settings field)")
     a = ap.parse_args(argv)
+    records = parse_records(a.records)
     try:
-        records = sorted(parse_only(a.records, "--records"), key=str)
         settings = parse_settings(a.setting)
     except ValueError as exc:
         raise SystemExit(str(exc)) from None
-    if any(b is None for b, _ in records):
-        raise SystemExit("--records: give BACKEND:SEED (kernel or foreign), not a bare SEED")
     if a.top < 1:
         raise SystemExit(f"--top: must be >= 1 (got {a.top})")
 

@@ -566,6 +566,21 @@ def parse_only(spec: str, flag: str = "--only") -> set[tuple[str | None, int]]:
     return out
 
 
+def parse_records(text: str, flag: str = "--records") -> list[tuple[str, int]]:
+    """``flag`` (a list of recordings) read as the benchmark's ``--only`` (:func:`parse_only`:
+    ``SEED`` for both simulators, or ``BACKEND:SEED``) -> sorted [(backend, seed)], every
+    seed a benchmark seed (>= 40000); a bad item raises SystemExit naming it."""
+    try:
+        keys = parse_only(text, flag)
+    except ValueError as exc:
+        raise SystemExit(str(exc)) from None
+    low = sorted(seed for _, seed in keys if seed < 40000)
+    if low:
+        raise SystemExit(f"{flag}: seeds must be benchmark seeds (>= 40000); got {low}")
+    both = ("kernel", "foreign")
+    return sorted({(b, seed) for backend, seed in keys for b in ((backend,) if backend else both)})
+
+
 def only(todo: list[dict], spec: str) -> list[dict]:
     """The cases of ``todo`` that ``--only`` names (order kept)."""
     keys = parse_only(spec)

@@ -69,8 +69,8 @@ def test_length_scaling_refuses_bad_input_before_any_work(monkeypatch, capsys, a
 
 
 @pytest.mark.parametrize(("args", "named"), [
-    (["--records", "340140"], "--records"),
-    (["--records", "moon:3"], "--records"),
+    (["--records", "kernel:12"], "--records: seeds must be benchmark seeds"),
+    (["--records", "moon:340140"], "--records"),
     (["--records", "kernel:340140", "--top", "0"], "--top"),
     (["--records", "kernel:340140", "--setting", "nonsense=1"], "--setting"),
 ])  # fmt: skip

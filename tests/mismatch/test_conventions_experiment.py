@@ -48,7 +48,8 @@ def test_likelihood_refuses_a_bad_record_before_any_work(mc, monkeypatch):
 
 
 def test_records_are_read_as_the_benchmarks_only(mc):
-    """One parser for recording lists (``parse_only``): a bare seed names both simulators."""
+    """One parser for recording lists (``mismatch_realistic.parse_records``, on
+    ``parse_only``): a bare seed names both simulators."""
     assert mc._records("300014, kernel:300001") == [
         ("foreign", 300014), ("kernel", 300001), ("kernel", 300014)]
 
