@@ -14,7 +14,13 @@ shape check live in), for every axis a:
 * ``shape1``: the same GLR with the noise re-estimated with P2, P3 fitted too (the
   alternative's noise, as the joint stage, 9.9);
 * ``drift0``: the drift column's GLR against the nominal fit (null noise);
-* ``timing0``: the readout timing feature's GLR (kinematic group, excited axes only).
+* ``timing0``: the readout timing feature's GLR (kinematic group, excited axes only);
+* ``timing1``: the same with the measured regressor (``Settings.timing_regressor``
+  ``"measured"``: the accelerometer term's central difference, not its tone part).
+
+``--timing-only``: only ``timing0`` and ``timing1`` (the null of the timing regressors
+without the equation group's fits).  ``--backends``: the simulators of ``--clean``
+(default both; one per process to use two cores).
 
 ``--clean``: clean flight-like recordings (calibration seeds) of both simulators: the null.
 ``--cases``: benchmark recordings (``backend:seed`` of the realistic set at ``--seed-base``):
@@ -35,7 +41,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 
-def _stats(data, basis) -> dict:
+def _stats(data, basis, timing_only: bool = False) -> dict:
     from tmopt.mismatch.diagnose import _fit_eq, _Group
     from tmopt.mismatch.effects.base import Context
     from tmopt.mismatch.effects.bias_drift import BiasDrift
@@ -47,6 +53,9 @@ def _stats(data, basis) -> dict:
         nominal_equation_columns,
     )
 
+    if timing_only:
+        return {f"timing{i}": _timing_stats(data, basis, r)
+                for i, r in enumerate(("tones", "measured"))}  # fmt: skip
     target = equation_target(data, basis)
     nom = nominal_equation_columns(data, basis)
     fit0, noise0 = _fit_eq(target, nom, False, data.layout, data.fs, "smoothed")
@@ -68,14 +77,15 @@ def _stats(data, basis) -> dict:
         fit_s, noise_s = _fit_eq(target, nom + [dcol] + shape, False, data.layout, data.fs,
                                  "smoothed")  # fmt: skip
         out["shape1"].append(_Group(target, nom + [dcol], fit_d, noise_s.whiten).glr(shape))
-    out["timing0"] = _timing_stats(data, basis)
+    out["timing0"] = _timing_stats(data, basis, "tones")
+    out["timing1"] = _timing_stats(data, basis, "measured")
     return out
 
 
-def _timing_stats(data, basis) -> list[float]:
-    """The readout timing feature's GLR per axis (``generic._readout_timings``; NaN on an
-    axis without excitation tones) in the kinematic group against the nominal fit: what
-    the selection's first step tests."""
+def _timing_stats(data, basis, regressor: str) -> list[float]:
+    """The readout timing feature's GLR per axis (``generic._readout_timings`` with
+    ``regressor``; NaN on an axis without excitation tones) in the kinematic group against
+    the nominal fit: what the selection's first step tests."""
     from tmopt.mismatch import generic
     from tmopt.mismatch.diagnose import Settings, fit_state, residual_groups
     from tmopt.mismatch.effects.base import Context
@@ -85,12 +95,12 @@ def _timing_stats(data, basis) -> list[float]:
     group = residual_groups(data, state)["kinematic"]
     ctx = Context(data, basis, state.eq_fit.residual, state.eq_noise)
     out = [math.nan] * len(AXES)
-    for cand in generic._readout_timings(ctx):
+    for cand in generic._readout_timings(ctx, regressor):
         out[AXES.index(cand.channel.split()[0])] = group.glr(cand.columns)
     return out
 
 
-def clean_row(backend: str, seed: int) -> dict:
+def clean_row(backend: str, seed: int, timing_only: bool = False) -> dict:
     from tmopt.mismatch.diagnose import prepare
     from tmopt.mismatch.fit import data_from_recording
     from tmopt.mismatch.realistic import draw_scenario, realistic_recording
@@ -99,7 +109,8 @@ def clean_row(backend: str, seed: int) -> dict:
     sc = draw_scenario(seed, backend)
     rec, _ = realistic_recording(sc, (), (), seed, backend)
     data, basis = prepare(data_from_recording(rec))
-    row = {"set": "clean", "backend": backend, "seed": seed, **_stats(data, basis)}
+    row = {"set": "clean", "backend": backend, "seed": seed,
+           **_stats(data, basis, timing_only)}  # fmt: skip
     row["cpu_s"] = time.process_time() - t0
     return row
 
@@ -123,7 +134,7 @@ def case_row(backend: str, seed: int, seed_base: int) -> dict:
 
 #: The statistics calibrated: name in calibration.LOWFREQ_NULL, probe key, chi^2 dof.
 CALIBRATED = (("ramp", "drift0", 1), ("curvature", "curv0", 1), ("shape", "shape0", 2),
-              ("timing", "timing0", 1))
+              ("timing", "timing0", 1), ("timing_measured", "timing1", 1))
 
 
 def fit_null(values: np.ndarray, dof: int) -> tuple[float, float]:
@@ -158,7 +169,8 @@ def summarise(rows: list[dict]) -> str:
              "kernel), per-axis values (4 per recording)",
              "| statistic | simulator | median (chi2) | 90 % (chi2) | max | share > chi2 99 % |",
              "|---|---|---|---|---|---|"]  # fmt: skip
-    for key, dof in (("curv0", 1), ("drift0", 1), ("shape0", 2), ("shape1", 2), ("timing0", 1)):
+    for key, dof in (("curv0", 1), ("drift0", 1), ("shape0", 2), ("shape1", 2), ("timing0", 1),
+                     ("timing1", 1)):
         for b in ("kernel", "foreign", "both"):
             v = _values(rows, key, b)
             if not v.size:
@@ -185,9 +197,16 @@ def main(argv=None) -> int:
     ap.add_argument("--cases", default=None, help="backend:seed,... of the realistic set")
     ap.add_argument("--seed-base", type=int, default=50000)
     ap.add_argument("--out", default="experiments/out/mismatch_lowfreq_probe")
+    ap.add_argument("--timing-only", action="store_true",
+                    help="only the readout timing statistics (timing0, timing1)")
+    ap.add_argument("--backends", default="kernel,foreign",
+                    help="the simulators of --clean, comma-separated")
     ap.add_argument("--summarise", action="store_true",
                     help="print the null's quantiles and the calibrated inflations")
     a = ap.parse_args(argv)
+    backends = a.backends.split(",")
+    if not backends or not set(backends) <= {"kernel", "foreign"}:
+        raise SystemExit(f"--backends: kernel and/or foreign, comma-separated (got {a.backends!r})")
     path = Path(a.out) / "rows.jsonl"
     if a.summarise:
         rows = [r for r in map(json.loads, path.open()) if r["set"] == "clean"]
@@ -203,7 +222,7 @@ def main(argv=None) -> int:
     todo = []
     if a.clean:
         lo, hi = (int(v) for v in a.clean.split(":"))
-        todo += [("clean", b, s) for s in range(lo, hi) for b in ("kernel", "foreign")]
+        todo += [("clean", b, s) for s in range(lo, hi) for b in backends]
     if a.cases:
         for item in a.cases.split(","):
             b, s = item.split(":")
@@ -212,7 +231,8 @@ def main(argv=None) -> int:
         for kind, b, s in todo:
             if (kind, b, s) in done:
                 continue
-            row = clean_row(b, s) if kind == "clean" else case_row(b, s, a.seed_base)
+            row = clean_row(b, s, a.timing_only) if kind == "clean" else \
+                case_row(b, s, a.seed_base)  # fmt: skip
             fh.write(json.dumps(row, default=float) + "\n")
             fh.flush()
             print(json.dumps(row, default=float), flush=True)

@@ -37,6 +37,7 @@ def test_cli_writes_the_report(recording, tmp_path, capsys, name):
     assert rep["settings"]["kin_refit"] is False and rep["settings"]["witness_refit"] is True
     assert rep["settings"]["kin_profile"] is True and rep["settings"]["onset_profile"] is False
     assert rep["settings"]["convention_profile"] is True
+    assert rep["settings"]["timing_regressor"] == "tones"
 
 
 def test_cli_can_turn_the_stop_40_to_56_rules_off(recording, tmp_path):
@@ -45,7 +46,8 @@ def test_cli_can_turn_the_stop_40_to_56_rules_off(recording, tmp_path):
                  "--no-in-place", "--no-shape-search", "--no-shape-placements", "--no-pairs",
                  "--no-true-position", "--rails", "read", "--kin-refit",
                  "--no-kin-profile", "--onset-profile", "--no-witness-refit",
-                 "--no-convention-profile", "--no-plots"]) == 0  # fmt: skip
+                 "--no-convention-profile", "--timing-regressor", "measured",
+                 "--no-plots"]) == 0  # fmt: skip
     settings = json.loads((out / "report.json").read_text())["settings"]
     assert settings["rejudge"] is False and settings["in_place"] is False
     assert settings["shape_search"] is False
@@ -54,6 +56,7 @@ def test_cli_can_turn_the_stop_40_to_56_rules_off(recording, tmp_path):
     assert settings["kin_refit"] is True  # the two switches that are off by default
     assert settings["kin_profile"] is False and settings["onset_profile"] is True
     assert settings["witness_refit"] is False and settings["convention_profile"] is False
+    assert settings["timing_regressor"] == "measured"
 
 
 def test_cli_reports_a_bad_file_in_one_line(tmp_path, capsys):

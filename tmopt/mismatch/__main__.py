@@ -11,6 +11,7 @@ from tmopt.design.cli import add_design_options, check_design_options
 from tmopt.mismatch.calibration import FAMILY_ALPHA, LOCATE_ALPHA
 from tmopt.mismatch.diagnose import RAILS, Settings, diagnose
 from tmopt.mismatch.fit import data_from_recording
+from tmopt.mismatch.generic import TIMING_DEFAULT, TIMING_REGRESSORS
 from tmopt.mismatch.report import write_report
 from tmopt.physics.recording import RecordingError, read_recording
 
@@ -78,6 +79,10 @@ def _parser() -> argparse.ArgumentParser:
                         "saturating): read as measurements, left out as gaps (mask), or "
                         "left out only when reading them refuses the recording (fallback, "
                         "the default; docs/mismatch.md 9.22)")  # fmt: skip
+    p.add_argument("--timing-regressor", choices=TIMING_REGRESSORS, default=TIMING_DEFAULT,
+                   help="the readout timing feature's regressor: the accelerometer term's "
+                        "excitation-tone part (tones) or the measured term's central "
+                        "difference (measured; docs/mismatch.md 9.34)")  # fmt: skip
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--design-next", action="store_true",
                    help="also design the next excitation into --out (python -m tmopt.design)")
@@ -111,7 +116,8 @@ def main(argv: list[str] | None = None) -> int:
                         rails=args.rails, kin_refit=args.kin_refit,
                         kin_profile=args.kin_profile, onset_profile=args.onset_profile,
                         convention_profile=args.convention_profile,
-                        witness_refit=not args.no_witness_refit)  # fmt: skip
+                        witness_refit=not args.no_witness_refit,
+                        timing_regressor=args.timing_regressor)  # fmt: skip
     dg = diagnose(data_from_recording(rec), settings)
     rep = write_report(dg, args.out, plots=not args.no_plots)
     print(rep["conclusion"])

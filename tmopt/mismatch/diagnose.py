@@ -56,6 +56,7 @@ from tmopt.mismatch.fit import (
     solve,
     solve_iv,
 )
+from tmopt.mismatch.generic import TIMING_DEFAULT
 from tmopt.mismatch.locate import Locations, locate
 from tmopt.mismatch.noise_model import RED_EXPONENTS, NoiseModel, fit_red
 from tmopt.mismatch.plausibility import (
@@ -170,6 +171,12 @@ class Settings:
     # (:func:`_witness_alternative`, docs 9.28): a slew over half the record is taken into
     # the null's spectrum (kernel 260057: GLR 17.8 under it, 142.8 under the alternative's)
     witness_refit: bool = True
+    # the readout timing feature's regressor (:data:`generic.TIMING_REGRESSORS`, docs
+    # 9.34): ``tones``, the accelerometer term's excitation-tone part differentiated, or
+    # ``measured``, the measured term's central difference -- which also carries the
+    # motion the noise drives, where a late stamp's signature mostly lies (kernel 340140:
+    # first-step GLR 13 with the tone part, 84 with the measured term)
+    timing_regressor: str = TIMING_DEFAULT  # (the field `generic` hides the module here)
 
     def __post_init__(self) -> None:
         if not (0 < self.alpha < 1 and 0 < self.locate_alpha < 1):
@@ -187,6 +194,10 @@ class Settings:
                      "convention_profile"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name} must be True or False; got {getattr(self, name)!r}")
+        if self.timing_regressor not in generic.TIMING_REGRESSORS:
+            raise ValueError(f"timing_regressor must be one of "
+                             f"{', '.join(generic.TIMING_REGRESSORS)}; got "
+                             f"{self.timing_regressor!r}")  # fmt: skip
         if self.rails not in RAILS:
             raise ValueError(f"rails must be one of {', '.join(RAILS)}; got {self.rails!r}")
         if not set(self.lowfreq) <= set(cal.LOWFREQ_NULL) - {"shape"}:
@@ -746,7 +757,7 @@ def _tests(data: Data, basis: np.ndarray, state: State, settings: Settings,
     applies to it (catalogue candidates; the generic features are always tested)."""
     ctx = Context(data, basis, state.eq_fit.residual, state.eq_noise)
     named = [c for effect in CATALOGUE for c in effect.candidates(ctx) if c.key not in exclude]
-    unnamed = generic.candidates(ctx) if settings.generic else []
+    unnamed = generic.candidates(ctx, settings.timing_regressor) if settings.generic else []
     groups = residual_groups(data, state)
     groups.update(_kin_groups(data, state, named + unnamed, settings))
     groups.update(_equation_alternatives(data, basis, state, settings))
@@ -881,7 +892,8 @@ def _kin_candidates(data: Data, basis: np.ndarray, state: State,
     ctx = Context(data, basis, state.eq_fit.residual, state.eq_noise)
     out = [c for effect in CATALOGUE for c in effect.candidates(ctx) if c.group == "kinematic"]
     if settings.generic:
-        out += [c for c in generic.candidates(ctx) if c.group == "kinematic"]
+        out += [c for c in generic.candidates(ctx, settings.timing_regressor)
+                if c.group == "kinematic"]
     return out
 
 

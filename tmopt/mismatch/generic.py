@@ -398,16 +398,39 @@ def _products(ctx: Context) -> list[Candidate]:
 #: under a cross-talk's name (f/k90138-140, f/k110140: ``distinct`` 21-60 beside it).
 READOUT_TIMING = True
 TIMING = "readout timing"
+#: The readout timing feature's regressor (``Settings.timing_regressor``): ``"tones"``,
+#: the accelerometer term's excitation-tone part differentiated tone by tone, or
+#: ``"measured"``, the measured term differentiated by a central difference within a
+#: segment (:func:`central_derivative`).  The first is what the tool shipped with; the
+#: second also carries the noise-driven motion, where most of a late stamp's signature
+#: lies (340140: 18 of its distinct SNR 20 outside the tone part; docs/mismatch.md 9.34).
+TIMING_REGRESSORS = ("tones", "measured")
+TIMING_DEFAULT = "tones"
 
 
-def _readout_timings(ctx: Context) -> list[Candidate]:
+def central_derivative(series: np.ndarray, rows: np.ndarray, dt: float) -> np.ndarray:
+    """``(s[i+1] - s[i-1]) / (2 dt)`` of a series on the kinematic rows ``rows`` (sample
+    indices, (R,)), 0 where row i's neighbours are not the adjacent samples (a segment's
+    edge).  Antisymmetric, so under no effect it is in quadrature with any stationary
+    noise that enters the residual undifferentiated (the accelerometer's own noise)."""
+    out = np.zeros_like(series)
+    inner = (rows[2:] - rows[1:-1] == 1) & (rows[1:-1] - rows[:-2] == 1)
+    out[1:-1][inner] = (series[2:][inner] - series[:-2][inner]) / (2.0 * dt)
+    return out
+
+
+def _readout_timings(ctx: Context, regressor: str = TIMING_DEFAULT) -> list[Candidate]:
     """A displacement readout stamped ``tau`` late, ``x_meas(t) = x(t - tau)``, per excited
     axis: to first order in tau its exact-ZOH kinematic residual (:func:`kinematic_target`)
     is ``-tau d/dt`` of the second difference of x, i.e. of the accelerometer term
-    ``g (a_n + a_(n-1))`` (:func:`kinematic_series`).  The regressor is that term's
-    excitation-tone part, differentiated tone by tone: the tones are set by the reference,
-    so it is its own instrument (the closed loop puts readout noise into ``acc``), and it
-    is in quadrature with a readout scale's (the same tone part undifferentiated)."""
+    ``g (a_n + a_(n-1))`` (:func:`kinematic_series`).  ``regressor`` (:data:`TIMING_REGRESSORS`):
+    ``"tones"``, that term's excitation-tone part differentiated tone by tone (the tones
+    are set by the reference, so it is its own instrument -- the closed loop puts readout
+    noise into ``acc`` -- and it is in quadrature with a readout scale's, the same tone
+    part undifferentiated); ``"measured"``, the measured term's central difference, which
+    also holds the motion the noise drives (its null: ``calibration.LOWFREQ_NULL``)."""
+    if regressor not in TIMING_REGRESSORS:
+        raise ValueError(f"regressor must be one of {TIMING_REGRESSORS}; got {regressor!r}")
     d = ctx.data
     rows = d.kin_index
     out = []
@@ -416,10 +439,13 @@ def _readout_timings(ctx: Context) -> list[Candidate]:
         if not tones:
             continue
         arr = np.zeros((4, rows.size))
-        arr[a] = -tone_part(kinematic_series(d, a), d.time[rows], tones, derivative=True)
+        series = kinematic_series(d, a)
+        arr[a] = -(tone_part(series, d.time[rows], tones, derivative=True)
+                   if regressor == "tones" else central_derivative(series, rows, d.dt))
         col = Column(f"{GENERIC}:{TIMING}[{AXES[a]}]", arr, None, (), a)
         out.append(Candidate(GENERIC, f"{AXES[a]} readout", "kinematic", ["tau"], ["s"],
-                             [col], None, fixed={"feature": TIMING}, null="timing",
+                             [col], None, fixed={"feature": TIMING},
+                             null="timing",
                              text=f"unexplained: the displacement readout of {AXES[a]} "
                                   f"({TMS[AXES[a]]}) is out of step with its accelerometer "
                                   "(a timing offset: the residual is in quadrature with "
@@ -427,10 +453,11 @@ def _readout_timings(ctx: Context) -> list[Candidate]:
     return out
 
 
-def candidates(ctx: Context) -> list[Candidate]:
-    """The generic features' best variants for this residual (see the module docstring)."""
+def candidates(ctx: Context, timing: str = TIMING_DEFAULT) -> list[Candidate]:
+    """The generic features' best variants for this residual (see the module docstring);
+    ``timing``: the readout timing feature's regressor (:data:`TIMING_REGRESSORS`)."""
     if ctx.eq_residual is None or ctx.eq_noise is None or ctx.data.n < 64:
         return []
     return (_steps(ctx) + _stiffness_steps(ctx) + _curvatures(ctx) + _lines(ctx)
             + _nonlinear(ctx) + _products(ctx)
-            + (_readout_timings(ctx) if READOUT_TIMING else []))  # fmt: skip
+            + (_readout_timings(ctx, timing) if READOUT_TIMING else []))  # fmt: skip

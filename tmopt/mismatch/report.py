@@ -327,7 +327,8 @@ def _settings(dg: Diagnosis) -> dict:
             "kin_profile": dg.settings.kin_profile,
             "onset_profile": dg.settings.onset_profile,
             "convention_profile": dg.settings.convention_profile,
-            "witness_refit": dg.settings.witness_refit}  # fmt: skip
+            "witness_refit": dg.settings.witness_refit,
+            "timing_regressor": dg.settings.timing_regressor}  # fmt: skip
 
 
 def build_report(dg: Diagnosis) -> dict:
