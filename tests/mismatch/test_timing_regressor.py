@@ -100,3 +100,16 @@ def test_a_weak_late_stamp_is_reported_with_the_measured_regressor_only():
     got = [f for f in measured["features"] if f["feature"] == generic.TIMING]
     assert [f["channel"] for f in got] == ["x1 readout"], measured["features"]
     assert "x1 readout" in measured["unexplained_at"]["channels"]
+
+
+def test_the_timing_null_probe_refuses_an_unknown_simulator_before_any_recording(
+        monkeypatch, tmp_path):  # fmt: skip
+    from pathlib import Path
+
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[2] / "experiments"))
+    import mismatch_lowfreq_probe
+
+    with pytest.raises(SystemExit, match="--backends: kernel and/or foreign"):
+        mismatch_lowfreq_probe.main(["--clean", "21000:21001", "--timing-only",
+                                     "--backends", "kernel,mars", "--out", str(tmp_path)])
+    assert not any(tmp_path.iterdir())  # nothing made
