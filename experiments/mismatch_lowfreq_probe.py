@@ -15,11 +15,14 @@ shape check live in), for every axis a:
   alternative's noise, as the joint stage, 9.9);
 * ``drift0``: the drift column's GLR against the nominal fit (null noise);
 * ``timing0``: the readout timing feature's GLR (kinematic group, excited axes only);
-* ``timing1``: the same with the measured regressor (``Settings.timing_regressor``
-  ``"measured"``: the accelerometer term's central difference, not its tone part).
+* ``timing1``: the same with the band regressor (``Settings.timing_regressor`` ``"band"``:
+  the accelerometer term's derivative below the excitation's band, not its tone part);
+* ``timing0p``, ``timing1p``: the same two read as the selection reads a kinematic
+  candidate by default (``Settings.kin_profile``: the profile likelihood ratio, screened
+  by the shared alternative; ``diagnose._kin_groups``).
 
-``--timing-only``: only ``timing0`` and ``timing1`` (the null of the timing regressors
-without the equation group's fits).  ``--backends``: the simulators of ``--clean``
+``--timing-only``: only the timing statistics (the null of the timing regressors without
+the equation group's fits).  ``--backends``: the simulators of ``--clean``
 (default both; one per process to use two cores).
 
 ``--clean``: clean flight-like recordings (calibration seeds) of both simulators: the null.
@@ -54,8 +57,7 @@ def _stats(data, basis, timing_only: bool = False) -> dict:
     )
 
     if timing_only:
-        return {f"timing{i}": _timing_stats(data, basis, r)
-                for i, r in enumerate(("tones", "measured"))}  # fmt: skip
+        return _all_timing_stats(data, basis)
     target = equation_target(data, basis)
     nom = nominal_equation_columns(data, basis)
     fit0, noise0 = _fit_eq(target, nom, False, data.layout, data.fs, "smoothed")
@@ -77,27 +79,47 @@ def _stats(data, basis, timing_only: bool = False) -> dict:
         fit_s, noise_s = _fit_eq(target, nom + [dcol] + shape, False, data.layout, data.fs,
                                  "smoothed")  # fmt: skip
         out["shape1"].append(_Group(target, nom + [dcol], fit_d, noise_s.whiten).glr(shape))
-    out["timing0"] = _timing_stats(data, basis, "tones")
-    out["timing1"] = _timing_stats(data, basis, "measured")
+    out.update(_all_timing_stats(data, basis))
     return out
 
 
-def _timing_stats(data, basis, regressor: str) -> list[float]:
+def _all_timing_stats(data, basis) -> dict:
+    """``timing0``/``timing1`` (GLR) and ``timing0p``/``timing1p`` (as the selection reads
+    them) for the tone and the band regressor."""
+    out = {}
+    for i, reg in enumerate(("tones", "band")):
+        out[f"timing{i}"], out[f"timing{i}p"] = _timing_stats(data, basis, reg)
+    return out
+
+
+def _timing_stats(data, basis, regressor: str) -> tuple[list[float], list[float]]:
     """The readout timing feature's GLR per axis (``generic._readout_timings`` with
     ``regressor``; NaN on an axis without excitation tones) in the kinematic group against
-    the nominal fit: what the selection's first step tests."""
+    the nominal fit, and the statistic the selection's first step reads it by (the profile
+    ratio, ``Settings.kin_profile``, as ``diagnose._statistic`` reads it)."""
     from tmopt.mismatch import generic
-    from tmopt.mismatch.diagnose import Settings, fit_state, residual_groups
+    from tmopt.mismatch.diagnose import (
+        Settings,
+        _kin_candidates,
+        _kin_groups,
+        fit_state,
+        residual_groups,
+    )
     from tmopt.mismatch.effects.base import Context
     from tmopt.mismatch.fit import AXES
 
-    state = fit_state(data, basis, [], [], False, Settings())
+    settings = Settings(timing_regressor=regressor)
+    state = fit_state(data, basis, [], [], False, settings)
     group = residual_groups(data, state)["kinematic"]
+    profile = _kin_groups(data, state, _kin_candidates(data, basis, state, settings),
+                          settings)["kinematic_profile"]  # fmt: skip
     ctx = Context(data, basis, state.eq_fit.residual, state.eq_noise)
-    out = [math.nan] * len(AXES)
+    glr, read = [math.nan] * len(AXES), [math.nan] * len(AXES)
     for cand in generic._readout_timings(ctx, regressor):
-        out[AXES.index(cand.channel.split()[0])] = group.glr(cand.columns)
-    return out
+        a = AXES.index(cand.channel.split()[0])
+        glr[a] = group.glr(cand.columns)
+        read[a] = profile(cand.columns, glr[a]) if profile is not None else glr[a]
+    return glr, read
 
 
 def clean_row(backend: str, seed: int, timing_only: bool = False) -> dict:
@@ -134,7 +156,8 @@ def case_row(backend: str, seed: int, seed_base: int) -> dict:
 
 #: The statistics calibrated: name in calibration.LOWFREQ_NULL, probe key, chi^2 dof.
 CALIBRATED = (("ramp", "drift0", 1), ("curvature", "curv0", 1), ("shape", "shape0", 2),
-              ("timing", "timing0", 1), ("timing_measured", "timing1", 1))
+              ("timing", "timing0", 1), ("timing", "timing1", 1),
+              ("timing", "timing0p", 1), ("timing", "timing1p", 1))
 
 
 def fit_null(values: np.ndarray, dof: int) -> tuple[float, float]:
@@ -165,12 +188,14 @@ def _values(rows: list[dict], key: str, backend: str) -> np.ndarray:
 def summarise(rows: list[dict]) -> str:
     from scipy import stats
 
+    from tmopt.mismatch.calibration import LOWFREQ_NULL
+
     lines = [f"{len(rows)} clean recordings ({sum(r['backend'] == 'kernel' for r in rows)} "
              "kernel), per-axis values (4 per recording)",
              "| statistic | simulator | median (chi2) | 90 % (chi2) | max | share > chi2 99 % |",
              "|---|---|---|---|---|---|"]  # fmt: skip
     for key, dof in (("curv0", 1), ("drift0", 1), ("shape0", 2), ("shape1", 2), ("timing0", 1),
-                     ("timing1", 1)):
+                     ("timing1", 1), ("timing0p", 1), ("timing1p", 1)):
         for b in ("kernel", "foreign", "both"):
             v = _values(rows, key, b)
             if not v.size:
@@ -184,7 +209,10 @@ def summarise(rows: list[dict]) -> str:
             continue
         scale, nu = fit_null(v, dof)
         fit = dof * scale * stats.f.isf(np.array([0.5, 0.1, 0.01, 1e-4]), dof, nu)
-        lines.append(f"LOWFREQ_NULL[{name!r}] = ({scale}, {nu}): its median / 90 % / 99 % / "
+        shipped = LOWFREQ_NULL[name]
+        beyond = np.mean(v > dof * shipped[0] * stats.f.isf(0.01, dof, shipped[1]))
+        lines.append(f"{key}: fit ({scale}, {nu}) [shipped LOWFREQ_NULL[{name!r}] = {shipped}, "
+                     f"values above its 99 %: {beyond:.3f}]: the fit's median / 90 % / 99 % / "
                      f"1 - 1e-4 quantiles {', '.join(f'{q:.1f}' for q in fit)} (chi2: "
                      + ", ".join(f"{q:.1f}" for q in stats.chi2.isf([0.5, 0.1, 0.01, 1e-4], dof))
                      + f"); values above its 99 %: {np.mean(v > fit[2]):.3f}")
@@ -198,7 +226,8 @@ def main(argv=None) -> int:
     ap.add_argument("--seed-base", type=int, default=50000)
     ap.add_argument("--out", default="experiments/out/mismatch_lowfreq_probe")
     ap.add_argument("--timing-only", action="store_true",
-                    help="only the readout timing statistics (timing0, timing1)")
+                    help="only the readout timing statistics (timing0, timing1 and their "
+                         "profile readings)")
     ap.add_argument("--backends", default="kernel,foreign",
                     help="the simulators of --clean, comma-separated")
     ap.add_argument("--summarise", action="store_true",

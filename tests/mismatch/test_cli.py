@@ -46,7 +46,7 @@ def test_cli_can_turn_the_stop_40_to_56_rules_off(recording, tmp_path):
                  "--no-in-place", "--no-shape-search", "--no-shape-placements", "--no-pairs",
                  "--no-true-position", "--rails", "read", "--kin-refit",
                  "--no-kin-profile", "--onset-profile", "--no-witness-refit",
-                 "--no-convention-profile", "--timing-regressor", "measured",
+                 "--no-convention-profile", "--timing-regressor", "band",
                  "--no-plots"]) == 0  # fmt: skip
     settings = json.loads((out / "report.json").read_text())["settings"]
     assert settings["rejudge"] is False and settings["in_place"] is False
@@ -56,7 +56,7 @@ def test_cli_can_turn_the_stop_40_to_56_rules_off(recording, tmp_path):
     assert settings["kin_refit"] is True  # the two switches that are off by default
     assert settings["kin_profile"] is False and settings["onset_profile"] is True
     assert settings["witness_refit"] is False and settings["convention_profile"] is False
-    assert settings["timing_regressor"] == "measured"
+    assert settings["timing_regressor"] == "band"
 
 
 def test_cli_reports_a_bad_file_in_one_line(tmp_path, capsys):

@@ -81,8 +81,8 @@ def _parser() -> argparse.ArgumentParser:
                         "the default; docs/mismatch.md 9.22)")  # fmt: skip
     p.add_argument("--timing-regressor", choices=TIMING_REGRESSORS, default=TIMING_DEFAULT,
                    help="the readout timing feature's regressor: the accelerometer term's "
-                        "excitation-tone part (tones) or the measured term's central "
-                        "difference (measured; docs/mismatch.md 9.34)")  # fmt: skip
+                        "excitation-tone part (tones) or the measured term's derivative "
+                        "below the excitation's band (band; docs/mismatch.md 9.34)")  # fmt: skip
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--design-next", action="store_true",
                    help="also design the next excitation into --out (python -m tmopt.design)")

@@ -173,9 +173,9 @@ class Settings:
     witness_refit: bool = True
     # the readout timing feature's regressor (:data:`generic.TIMING_REGRESSORS`, docs
     # 9.34): ``tones``, the accelerometer term's excitation-tone part differentiated, or
-    # ``measured``, the measured term's central difference -- which also carries the
-    # motion the noise drives, where a late stamp's signature mostly lies (kernel 340140:
-    # first-step GLR 13 with the tone part, 84 with the measured term)
+    # ``band``, the measured term's derivative below the excitation's band -- which also
+    # carries the motion the noise drives there, where a late stamp's signature can
+    # mostly lie (kernel 340140: profile ratio 18 with the tone part, 189 with the band)
     timing_regressor: str = TIMING_DEFAULT  # (the field `generic` hides the module here)
 
     def __post_init__(self) -> None:

@@ -400,12 +400,19 @@ READOUT_TIMING = True
 TIMING = "readout timing"
 #: The readout timing feature's regressor (``Settings.timing_regressor``): ``"tones"``,
 #: the accelerometer term's excitation-tone part differentiated tone by tone, or
-#: ``"measured"``, the measured term differentiated by a central difference within a
-#: segment (:func:`central_derivative`).  The first is what the tool shipped with; the
-#: second also carries the noise-driven motion, where most of a late stamp's signature
-#: lies (340140: 18 of its distinct SNR 20 outside the tone part; docs/mismatch.md 9.34).
-TIMING_REGRESSORS = ("tones", "measured")
+#: ``"band"``, the measured term's central difference low-passed below the excitation's
+#: band (:func:`band_derivative`).  The first is what the tool shipped with; the second
+#: also carries the motion the noise drives below that band, where most of a late stamp's
+#: signature can lie (340140: 18 of its distinct SNR 20 outside the tone part), and
+#: leaves out the loop's band, where the measured term is endogenous (docs/mismatch.md 9.34).
+TIMING_REGRESSORS = ("tones", "band")
 TIMING_DEFAULT = "tones"
+#: ``"band"``'s cutoff in units of the highest excitation tone of any axis, and its cap in
+#: units of the sample rate (the loop's band starts above the excitation's; docs 9.34).
+BAND_OVER_TONES = 1.5
+BAND_CAP = 0.25
+#: Order of the zero-phase Butterworth low-pass (run forward and back: twice this).
+BAND_ORDER = 4
 
 
 def central_derivative(series: np.ndarray, rows: np.ndarray, dt: float) -> np.ndarray:
@@ -419,20 +426,53 @@ def central_derivative(series: np.ndarray, rows: np.ndarray, dt: float) -> np.nd
     return out
 
 
+def band_cutoff(tones: list[float], fs: float) -> float:
+    """``"band"``'s cutoff [Hz]: :data:`BAND_OVER_TONES` times the highest excitation tone
+    ``tones`` (every axis's, [Hz]), at most :data:`BAND_CAP` times ``fs``."""
+    return min(BAND_OVER_TONES * max(tones), BAND_CAP * fs)
+
+
+def band_derivative(series: np.ndarray, rows: np.ndarray, bounds, dt: float,
+                    cutoff: float) -> np.ndarray:  # fmt: skip
+    """:func:`central_derivative` low-passed below ``cutoff`` [Hz] by a zero-phase
+    Butterworth filter within each kinematic segment (``bounds``: the rows' ``(start,
+    stop)`` per segment, ``Data.kin_layout``); a segment too short to filter is left 0.
+
+    Why: the measured accelerometer term holds the loop's response to the readout noise,
+    which the kinematic residual also holds.  Read by the profile likelihood (the noise
+    model estimated again under it) the unfiltered difference took that band in on clean
+    recordings (clean kernel 37560: ratio 2869; clean foreign 340007: a fitted "timing" of
+    0.25 s at h = 0.4 s, docs 9.34).  Below the excitation's band the motion is the
+    excitation's and the noise's, not the loop's reply to the readout."""
+    from scipy import signal
+
+    d = central_derivative(series, rows, dt)
+    sos = signal.butter(BAND_ORDER, cutoff, fs=1.0 / dt, output="sos")
+    pad = 3 * (2 * len(sos) + 1)
+    out = np.zeros_like(d)
+    for lo, hi in bounds:
+        if hi - lo > pad:
+            out[lo:hi] = signal.sosfiltfilt(sos, d[lo:hi], padlen=pad)
+    return out
+
+
 def _readout_timings(ctx: Context, regressor: str = TIMING_DEFAULT) -> list[Candidate]:
     """A displacement readout stamped ``tau`` late, ``x_meas(t) = x(t - tau)``, per excited
     axis: to first order in tau its exact-ZOH kinematic residual (:func:`kinematic_target`)
     is ``-tau d/dt`` of the second difference of x, i.e. of the accelerometer term
-    ``g (a_n + a_(n-1))`` (:func:`kinematic_series`).  ``regressor`` (:data:`TIMING_REGRESSORS`):
-    ``"tones"``, that term's excitation-tone part differentiated tone by tone (the tones
-    are set by the reference, so it is its own instrument -- the closed loop puts readout
-    noise into ``acc`` -- and it is in quadrature with a readout scale's, the same tone
-    part undifferentiated); ``"measured"``, the measured term's central difference, which
-    also holds the motion the noise drives (its null: ``calibration.LOWFREQ_NULL``)."""
+    ``g (a_n + a_(n-1))`` (:func:`kinematic_series`).  ``regressor``
+    (:data:`TIMING_REGRESSORS`): ``"tones"``, that term's excitation-tone part
+    differentiated tone by tone (the tones are set by the reference, so it is its own
+    instrument -- the closed loop puts readout noise into ``acc`` -- and it is in
+    quadrature with a readout scale's, the same tone part undifferentiated); ``"band"``,
+    the measured term's derivative below the excitation's band (:func:`band_derivative`),
+    which also holds the motion the noise drives there.  Both are referred to the timing
+    null (``calibration.LOWFREQ_NULL["timing"]``)."""
     if regressor not in TIMING_REGRESSORS:
         raise ValueError(f"regressor must be one of {TIMING_REGRESSORS}; got {regressor!r}")
     d = ctx.data
     rows = d.kin_index
+    every = [f for a in range(4) for f in d.tones(a)]
     out = []
     for a in range(4):
         tones = d.tones(a)
@@ -441,7 +481,8 @@ def _readout_timings(ctx: Context, regressor: str = TIMING_DEFAULT) -> list[Cand
         arr = np.zeros((4, rows.size))
         series = kinematic_series(d, a)
         arr[a] = -(tone_part(series, d.time[rows], tones, derivative=True)
-                   if regressor == "tones" else central_derivative(series, rows, d.dt))
+                   if regressor == "tones" else band_derivative(
+                       series, rows, d.kin_layout.bounds, d.dt, band_cutoff(every, d.fs)))
         col = Column(f"{GENERIC}:{TIMING}[{AXES[a]}]", arr, None, (), a)
         out.append(Candidate(GENERIC, f"{AXES[a]} readout", "kinematic", ["tau"], ["s"],
                              [col], None, fixed={"feature": TIMING},
