@@ -128,3 +128,15 @@ def test_the_timing_null_probe_refuses_an_unknown_simulator_before_any_recording
         mismatch_lowfreq_probe.main(["--clean", "21000:21001", "--timing-only",
                                      "--backends", "kernel,mars", "--out", str(tmp_path)])
     assert not any(tmp_path.iterdir())  # nothing made
+
+
+def test_the_regressor_comparison_refuses_bad_input_before_any_recording(monkeypatch):
+    from pathlib import Path
+
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[2] / "experiments"))
+    import mismatch_timing_regressors
+
+    with pytest.raises(SystemExit, match="--bands: must be >= 2"):
+        mismatch_timing_regressors.main(["--records", "kernel:340140", "--bands", "1"])
+    with pytest.raises(SystemExit):  # not a benchmark seed
+        mismatch_timing_regressors.main(["--records", "kernel:12"])
