@@ -7,6 +7,8 @@ test_mgsaea_gp.py.
 
 from __future__ import annotations
 
+from collections import Counter
+
 import numpy as np
 import pytest
 from scipy.interpolate import RBFInterpolator
@@ -168,10 +170,14 @@ def test_summary_reports_the_stage_reached_the_switch_and_the_change_rates():
     mc = change_rate(alg._ideal[2], alg._ideal[0], sigma=alg.sigma)
     assert summary["mc"] == {"n": 1, "first": mc, "last": mc, "min": mc, "median": mc,
                              "max": mc}
-    stage_two = {f"stage2:{alg.info()['granularity']}"}
-    assert summary["granularity_iterations"].keys() - stage_two == {"stage1:key"}
-    assert sum(summary["granularity_iterations"].values()) == 4
-    assert summary["granularity_iterations"]["stage1:key"] == 2
+    # stage two's granularity follows the population each iteration (choose_granularity),
+    # so iterations 3 and 4 may differ: the summary counts each iteration's own plan
+    counts = summary["granularity_iterations"]
+    assert counts == dict(Counter(alg._granularities))
+    assert sum(counts.values()) == 4 and counts["stage1:key"] == 2
+    assert {k.split(":")[1] for k in counts if k.startswith("stage2:")} <= {
+        "coarse", "fine", "objectives"}
+    assert f"stage2:{alg.info()['granularity']}" in counts  # the last iteration's
 
     never = small(MGSAEAIPC, gap=2, threshold=1e-300)
     summary = run(never, TwoGroupProblem(), budget=20 + 4 * 5).metrics["algorithm_summary"]

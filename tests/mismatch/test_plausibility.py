@@ -357,8 +357,16 @@ def test_a_record_cut_into_short_pieces_is_flagged_not_refused(monkeypatch):
 
 def test_a_sign_flipped_force_on_the_foreign_base_is_refused_not_raised(bases):
     """The full sweep's one traceback (stop 52: LinAlgError in the noise model's spline
-    fit, see test_noise_model's wide-spectrum test): a refusal now, naming the parameter
-    beyond its physical range."""
+    fit, see test_noise_model's wide-spectrum test): no traceback and no name.  Which of
+    the sweep's two honest outcomes it reaches depends on the machine's floating point
+    (stop 58: the same code refused it on the machines before and reports it unexplained
+    on an AMD EPYC, where only two explanations beyond physics precede the third that
+    refuses): refused, naming the parameter beyond its physical range, or unexplained,
+    with the negative gain on x1 said to be beyond physics."""
     rec = bases[2]
     got, detail = outcome(_with(rec, {"force_x1": -rec["force_x1"]}))
-    assert got == "refused" and "beyond its physical range" in detail, detail
+    if got == "refused":
+        assert "beyond its physical range" in detail, detail
+    else:
+        assert got == "unexplained", detail
+        assert "explanation beyond physics taken out (actuation_gain[x1])" in detail, detail
