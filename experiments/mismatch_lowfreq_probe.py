@@ -86,30 +86,28 @@ def _stats(data, basis, timing_only: bool = False) -> dict:
 def _all_timing_stats(data, basis) -> dict:
     """``timing0``/``timing1`` (GLR) and ``timing0p``/``timing1p`` (as the selection reads
     them) for the tone and the band regressor."""
+    from tmopt.mismatch.diagnose import Settings, fit_state
+
+    # the nominal fit does not depend on the timing regressor: one for both
+    state = fit_state(data, basis, [], [], False, Settings())
     out = {}
     for i, reg in enumerate(("tones", "band")):
-        out[f"timing{i}"], out[f"timing{i}p"] = _timing_stats(data, basis, reg)
+        out[f"timing{i}"], out[f"timing{i}p"] = _timing_stats(data, basis, state, reg)
     return out
 
 
-def _timing_stats(data, basis, regressor: str) -> tuple[list[float], list[float]]:
+def _timing_stats(data, basis, state, regressor: str) -> tuple[list[float], list[float]]:
     """The readout timing feature's GLR per axis (``generic._readout_timings`` with
     ``regressor``; NaN on an axis without excitation tones) in the kinematic group against
     the nominal fit, and the statistic the selection's first step reads it by (the profile
-    ratio, ``Settings.kin_profile``, as ``diagnose._statistic`` reads it)."""
+    ratio, ``Settings.kin_profile``, as ``diagnose._statistic`` reads it); ``state``: the
+    nominal fit (``diagnose.fit_state``)."""
     from tmopt.mismatch import generic
-    from tmopt.mismatch.diagnose import (
-        Settings,
-        _kin_candidates,
-        _kin_groups,
-        fit_state,
-        residual_groups,
-    )
+    from tmopt.mismatch.diagnose import Settings, _kin_candidates, _kin_groups, residual_groups
     from tmopt.mismatch.effects.base import Context
     from tmopt.mismatch.fit import AXES
 
     settings = Settings(timing_regressor=regressor)
-    state = fit_state(data, basis, [], [], False, settings)
     group = residual_groups(data, state)["kinematic"]
     profile = _kin_groups(data, state, _kin_candidates(data, basis, state, settings),
                           settings)["kinematic_profile"]  # fmt: skip

@@ -485,8 +485,7 @@ def _readout_timings(ctx: Context, regressor: str = TIMING_DEFAULT) -> list[Cand
                        series, rows, d.kin_layout.bounds, d.dt, band_cutoff(every, d.fs)))
         col = Column(f"{GENERIC}:{TIMING}[{AXES[a]}]", arr, None, (), a)
         out.append(Candidate(GENERIC, f"{AXES[a]} readout", "kinematic", ["tau"], ["s"],
-                             [col], None, fixed={"feature": TIMING},
-                             null="timing",
+                             [col], None, fixed={"feature": TIMING}, null="timing",
                              text=f"unexplained: the displacement readout of {AXES[a]} "
                                   f"({TMS[AXES[a]]}) is out of step with its accelerometer "
                                   "(a timing offset: the residual is in quadrature with "
