@@ -7,6 +7,10 @@ TORCH := torch==2.13.0
 # The suite on both of CI's cores, one test file per process (a file's fixtures built once):
 # 13 min serial, under 8 min this way (docs/robustness.md, 'CI time').
 TEST_JOBS ?= 2
+# One BLAS/OpenMP thread per test process: the processes already fill the cores, and two
+# workers each spinning two OpenBLAS/torch threads on 2 cores made the suite's files take
+# ~1.7x as long (docs/robustness.md, 'CI time', stop 59).  numba keeps its own threads.
+TEST_ENV := OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
 
 .PHONY: demo test test-slow lint install clean lock
 
@@ -24,10 +28,10 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(VENV)/bin/ruff check .
-	$(PY) -m pytest -n $(TEST_JOBS) --dist loadfile
+	$(TEST_ENV) $(PY) -m pytest -n $(TEST_JOBS) --dist loadfile
 
 test-slow: $(STAMP)
-	$(PY) -m pytest -m slow -n $(TEST_JOBS) --dist loadfile
+	$(TEST_ENV) $(PY) -m pytest -m slow -n $(TEST_JOBS) --dist loadfile
 
 # The studies' tested set of every installed distribution (tmopt itself left out), from the
 # environment the tests passed in; torch's local tag "+cpu" is dropped so the file installs
