@@ -46,7 +46,7 @@ def _ooc(name: str, axis: str, backend: str, seed: int):
 
 
 @pytest.mark.parametrize(("name", "backend", "seed", "axis"), [
-    ("position_abs", "kernel", 501, "x2"),
+    pytest.param("position_abs", "kernel", 501, "x2", marks=pytest.mark.slow),  # 23 s
     pytest.param("quadratic_stiffness", "kernel", 503, "x2", marks=pytest.mark.slow),  # 37 s
     pytest.param("xy_product", "kernel", 505, "x2", marks=pytest.mark.slow),  # 8 s
     ("position_abs", "foreign", 502, "x1"),
@@ -150,8 +150,8 @@ def test_a_stiffness_step_is_not_named_a_linear_stiffness_drift():
         rep["ambiguous"]  # fmt: skip
 
 
-@pytest.mark.parametrize(("backend", "seed", "axis"), [("kernel", 641, "x2"),
-                                                       ("foreign", 644, "x1")])  # fmt: skip
+@pytest.mark.parametrize(("backend", "seed", "axis"), [
+    pytest.param("kernel", 641, "x2", marks=pytest.mark.slow), ("foreign", 644, "x1")])  # 19 s, 8 s
 def test_a_true_linear_stiffness_drift_keeps_its_name(backend, seed, axis):
     """The stiffness drift's shape check must not take a linear drift's name (SNR 20);
     its false-misfit rate is measured by ``experiments/mismatch_shape_calibration.py

@@ -132,7 +132,7 @@ MUTATIONS = {
 #: bases) and the full sweep that docs/robustness.md counts (`make test-slow`: 216).  The
 #: full sweep cost 43 s, then ~120 s once names beyond physics were taken out and the
 #: selection rerun (issue 26): a long study, so `slow`.
-PER_KIND = 6
+PER_KIND = 3  # every mutation once on each of the three clean bases; the full 18 are slow
 PER_KIND_FULL = 18
 
 
@@ -355,6 +355,7 @@ def test_a_record_cut_into_short_pieces_is_flagged_not_refused(monkeypatch):
     assert any(n.startswith("caution: the record is cut into") for n in rep["notes"])
 
 
+@pytest.mark.slow  # one 70 s diagnosis; the default sweep's unit errors and sign flips stay
 def test_a_sign_flipped_force_on_the_foreign_base_is_refused_not_raised(bases):
     """The full sweep's one traceback (stop 52: LinAlgError in the noise model's spline
     fit, see test_noise_model's wide-spectrum test): no traceback and no name.  Which of

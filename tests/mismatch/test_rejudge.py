@@ -63,7 +63,9 @@ def test_a_rotation_whose_evidence_the_nulls_noise_took_in_is_named():
     assert "rejudged" not in now["data_used"]
 
 
-def test_on_a_clean_recording_nothing_is_lifted_and_drifts_are_never_rejudged():
+@pytest.mark.parametrize(("backend", "seed"), [  # 24 s each: the foreign one is slow
+    ("kernel", 651), pytest.param("foreign", 652, marks=pytest.mark.slow)])
+def test_on_a_clean_recording_nothing_is_lifted_and_drifts_are_never_rejudged(backend, seed):
     """The null side, candidate by candidate: on a clean recording every candidate of the
     first step is weak; re-judged as if selected, the rotation (its own "witness" family
     since stop 52, deflated by ``WITNESS_REFIT_INFLATION``; the witnesses of these clean
@@ -71,24 +73,23 @@ def test_on_a_clean_recording_nothing_is_lifted_and_drifts_are_never_rejudged():
     test_witness_refit's) is not lifted, and a drift is
     not re-judged at all (on 1/f^2 noise its statistic under the alternative takes the
     random walk's ramp: clean kernel 22045, docs 9.16)."""
-    for backend, seed in (("kernel", 651), ("foreign", 652)):
-        sc = draw_scenario(seed, backend)
-        data, basis = prepare(data_from_recording(realistic_recording(sc, [], [], seed,
-                                                                      backend)[0]))  # fmt: skip
-        settings = Settings()
-        state = fit_state(data, basis, [], [], False, settings)
-        evals = _Evaluations(data, basis, settings)(state, set())
-        picked = [e for e in evals if e.candidate.effect in ("rotation_coupling", "bias_drift",
-                                                             "stiffness_drift")]  # fmt: skip
-        assert {e.candidate.effect for e in picked} == {"rotation_coupling", "bias_drift",
-                                                       "stiffness_drift"}  # fmt: skip
-        for ev in picked:
-            data.usage.pop("rejudged", None)
-            assert rejudged(data, basis, [(ev, [])], settings, len(evals)) == set()
-            tested = [u["key"] for u in data.usage.get("rejudged", [])]
-            drift = ev.candidate.effect != "rotation_coupling"
-            assert tested == ([] if drift or ev.dbic >= 6 else [ev.candidate.key]), \
-                (backend, ev.candidate.key, ev.dbic)  # fmt: skip
+    sc = draw_scenario(seed, backend)
+    data, basis = prepare(data_from_recording(realistic_recording(sc, [], [], seed,
+                                                                  backend)[0]))  # fmt: skip
+    settings = Settings()
+    state = fit_state(data, basis, [], [], False, settings)
+    evals = _Evaluations(data, basis, settings)(state, set())
+    picked = [e for e in evals if e.candidate.effect in ("rotation_coupling", "bias_drift",
+                                                         "stiffness_drift")]  # fmt: skip
+    assert {e.candidate.effect for e in picked} == {"rotation_coupling", "bias_drift",
+                                                   "stiffness_drift"}  # fmt: skip
+    for ev in picked:
+        data.usage.pop("rejudged", None)
+        assert rejudged(data, basis, [(ev, [])], settings, len(evals)) == set()
+        tested = [u["key"] for u in data.usage.get("rejudged", [])]
+        drift = ev.candidate.effect != "rotation_coupling"
+        assert tested == ([] if drift or ev.dbic >= 6 else [ev.candidate.key]), \
+            (backend, ev.candidate.key, ev.dbic)  # fmt: skip
 
 
 @pytest.mark.slow  # a 9 s diagnosis study: CI's 15 min (`make test-slow`)

@@ -117,7 +117,8 @@ def test_a_relaxation_that_only_ties_with_a_true_ramp_does_not_replace_it():
     assert not step["replaced"] and not relax["replaced"]
 
 
-@pytest.mark.parametrize("search", [pytest.param(True, marks=pytest.mark.slow), False])  # 12 s
+@pytest.mark.parametrize("search", [pytest.param(True, marks=pytest.mark.slow),  # 12 s
+                                    pytest.param(False, marks=pytest.mark.slow)])  # 36 s
 def test_the_searched_checks_are_listed_only_with_the_switch(search):
     """``search=False`` is the check before stop 41: P2 + P3 alone, one entry in
     ``checks``; with it, the step and the relaxation follow, each with its in-place

@@ -48,7 +48,8 @@ def _names(rep: dict) -> list[tuple[str, str]]:
     return [(e["name"], e["channel"]) for e in rep["effects"]]
 
 
-@pytest.mark.parametrize("backend,seed", [("kernel", 611), ("foreign", 612)])
+@pytest.mark.parametrize("backend,seed", [("kernel", 611),  # the foreign one: 36 s, slow
+                                          pytest.param("foreign", 612, marks=pytest.mark.slow)])
 def test_a_slew_the_nulls_noise_took_in_is_found(backend, seed):
     """A slew at SNR 20 (the benchmark's lower magnitude; 1200-1300 s records): named at
     the first step, its statistic the alternative's deflated by the calibrated factor
@@ -98,7 +99,8 @@ def test_the_statistic_is_the_alternatives_fit_deflated():
     assert _witness_alternative(data, basis, state, Settings(witness_refit=False)) is None
 
 
-@pytest.mark.parametrize("backend,seed", [("kernel", 617), ("foreign", 618)])
+@pytest.mark.parametrize("backend,seed", [("kernel", 617),  # the foreign one: 26 s, slow
+                                          pytest.param("foreign", 618, marks=pytest.mark.slow)])
 def test_moving_witnesses_without_a_coupling_raise_nothing(backend, seed):
     """The null side: a clean recording whose witnesses hold a slew with no coupling in
     the data -- the rotation's statistic stays below the selection's level and the tool

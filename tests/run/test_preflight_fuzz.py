@@ -132,13 +132,13 @@ REPORTED = [
 GROUP_CASES = _group_cases()
 CASES = GROUP_CASES + _run_setting_cases() + REPORTED
 #: The default suite's share: all run-setting and reported cases and a seeded sample of
-#: the group cases, 250 in all.
+#: the group cases, 150 in all.
 SAMPLE = _run_setting_cases() + REPORTED
-SAMPLE = SAMPLE + random.Random(20).sample(GROUP_CASES, 250 - len(SAMPLE))
+SAMPLE = SAMPLE + random.Random(20).sample(GROUP_CASES, 150 - len(SAMPLE))
 
 
 def test_the_generator_makes_enough_bad_configurations():
-    assert len(SAMPLE) >= 200 and len(CASES) >= 1000, (len(SAMPLE), len(CASES))
+    assert len(SAMPLE) >= 150 and len(CASES) >= 1000, (len(SAMPLE), len(CASES))
     for cases in (SAMPLE, CASES):
         keys = {ov.split("=")[0].lstrip("+").split(".")[0] for overrides, _ in cases
                 for ov in overrides[-1:]}
