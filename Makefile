@@ -5,7 +5,7 @@ STAMP := $(VENV)/.installed
 # torch first, from the CPU wheel, so no later resolution pulls the CUDA build.
 TORCH := torch==2.13.0
 # The suite on both of CI's cores, one test file per process (a file's fixtures built once):
-# 13 min serial, under 8 min this way (docs/robustness.md, 'CI time').
+# about half the serial time (measured times: docs/robustness.md, 'CI time').
 TEST_JOBS ?= 2
 # One BLAS/OpenMP thread per test process: the processes already fill the cores, and two
 # workers each spinning two OpenBLAS/torch threads on 2 cores made the suite's files take
