@@ -77,7 +77,6 @@ def test_bo_iterations_propose_q_new_points_and_count_every_evaluation():
     assert np.array_equal(res.archive.X, again.archive.X)  # same seed, same archive
 
 
-@pytest.mark.slow  # 50 s: three objectives' box decompositions; CI's 15 min (`make test-slow`)
 def test_three_objectives():
     problem = PymooBenchmark("c2dtlz2", n_var=5)
     alg = QLogNEHVI(n_init=8, **FAST)
