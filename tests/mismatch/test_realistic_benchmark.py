@@ -121,6 +121,34 @@ def test_a_look_alike_the_data_cannot_tell_apart_is_excused_only_in_the_second_r
     assert "(second rate; 1 of 2 are) | 0/1 (0 %)" in text
 
 
+def test_a_flagged_channel_tie_is_excused_only_in_the_added_line(bench):
+    """docs/mismatch.md 9.35's added line: a drift named on x2 whose report flags x1 as
+    the channel barely chosen, beside a look-alike drift at x1 the data cannot tell from
+    the truth, stays wrong in the headline and against the limit, and is not counted in
+    the added line; a flagged alternative that is not the look-alike's channel, or a
+    look-alike the data can tell apart, is counted in all three."""
+    _, mr = bench
+
+    def tied(alternatives):
+        rep = _drift_report("x2")
+        rep["effects"][0]["channel_alternatives"] = alternatives
+        return rep
+
+    row = mr.score(tied(["x1"]), _ooc_truth(2.4))
+    assert row["wrong"] and row["wrong_distinct"] and not row["wrong_distinct_ties"]
+    for rep, truth in ((tied(["y2"]), _ooc_truth(2.4)), (tied([]), _ooc_truth(2.4)),
+                       (tied(["x1"]), _ooc_truth(40.0))):  # fmt: skip
+        row = mr.score(rep, truth)
+        assert row["wrong_distinct"] and row["wrong_distinct_ties"]
+    rows = [{"backend": "foreign", "category": "out-of-catalogue", "truth": "thermal",
+             "n_identifiable": 0, "extra_names": 1, "unexplained": False, "refused": False,
+             **mr.score(tied(alt), _ooc_truth(2.4))} for alt in (["x1"], ["y2"])]  # fmt: skip
+    text = mr.summarise(rows)
+    assert "look-alike the data cannot tell from its out-of-catalogue truth not counted " \
+        "(second rate; 2 rows carry it) | 2/2 (100 %)" in text
+    assert "(added line, 9.35; 2 rows carry it) | 1/2 (50 %)" in text
+
+
 def test_a_modulation_through_its_zero_crossing_is_a_drift_and_a_line_is_not(bench):
     """The physical limit itself (:func:`limits`), on a 1200 s record: a 1e-4 Hz
     modulation centred on its zero crossing (0.12 of a cycle) is within a few percent a
