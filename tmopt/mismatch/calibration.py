@@ -10,6 +10,15 @@ see docs/mismatch.md, "Calibration").  They are constants here, not tuned per re
   (Holm, Scand. J. Stat. 6, 65 (1979)) and a candidate is significant below this level.
 * ``LOCATE_ALPHA`` -- family-wise level of the locate step (Bonferroni over frequency
   bins and time windows) that decides "unexplained mismatch".
+* Both are 0.005 since stop 62 (0.01 before).  The smaller tests spend their levels on
+  top of these two (the transient at LOCATE_ALPHA / 4, the joint stage at FAMILY_ALPHA /
+  2 per family, the low-frequency and timing nulls), so at 0.01 each the union sat at the
+  issue's 2 % false-alarm budget and above it in the benchmark (31/1367 clean recordings,
+  every alarm at Holm p 0.002-0.008).  Halved by a paired test pre-registered before any
+  row was read (docs/mismatch.md 9.36): on 150 never-seen recordings no attribution or
+  out-of-catalogue success was lost and one wrong name went; clean false alarms 2/128
+  against 5/128.  The inflation factors below were calibrated against the 0.01 levels;
+  at 0.005 they are the more conservative.
 * ``AMBIGUOUS_DBIC`` -- two explanations whose BIC differ by less than this are reported
   as competing (6 = "strong" evidence, Kass & Raftery, JASA 90, 773 (1995)).
 * ``ALIASED_R2`` -- a candidate that this recording cannot reveal (minimum detectable value
@@ -44,8 +53,8 @@ __all__ = ["FAMILY_ALPHA", "LOCATE_ALPHA", "AMBIGUOUS_DBIC", "ALIASED_R2", "LJUN
            "WITNESS_REFIT_INFLATION",
            "KIN_STIFFNESS_VISIBLE", "CONVENTION_LEAD", "LOWFREQ_NULL"]
 
-FAMILY_ALPHA: float = 0.01
-LOCATE_ALPHA: float = 0.01
+FAMILY_ALPHA: float = 0.005
+LOCATE_ALPHA: float = 0.005
 AMBIGUOUS_DBIC: float = 6.0
 ALIASED_R2: float = 0.5
 LJUNG_BOX_LAGS: int = 20
