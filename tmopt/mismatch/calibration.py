@@ -14,7 +14,7 @@ see docs/mismatch.md, "Calibration").  They are constants here, not tuned per re
   top of these two (the transient at LOCATE_ALPHA / 4, the joint stage at FAMILY_ALPHA /
   2 per family, the low-frequency and timing nulls), so at 0.01 each the union sat at the
   issue's 2 % false-alarm budget and above it in the benchmark (31/1367 clean recordings,
-  every alarm at Holm p 0.002-0.008).  Halved by a paired test pre-registered before any
+  its named alarms at Holm p 0.002-0.008).  Halved by a paired test pre-registered before any
   row was read (docs/mismatch.md 9.36): on 150 never-seen recordings no attribution or
   out-of-catalogue success was lost and one wrong name went; clean false alarms 2/128
   against 5/128.  The inflation factors below were calibrated against the 0.01 levels;
