@@ -44,9 +44,11 @@ def test_single_names_raised_on_clean_records_just_under_one_percent_are_not_nam
 
 
 def test_the_levels_spent_on_a_clean_record_fit_the_budget():
-    """Bonferroni's union of the levels every clean record meets: the catalogue's
-    family (FAMILY_ALPHA), the locate step (LOCATE_ALPHA), its transient test
-    (LOCATE_ALPHA / 4) and the joint stage (FAMILY_ALPHA / 2 per family, two families).
-    At 0.01 each it was 0.0325, past the issue's 2 %."""
-    spent = cal.FAMILY_ALPHA + cal.LOCATE_ALPHA + cal.LOCATE_ALPHA / 4 + 2 * cal.FAMILY_ALPHA / 2
+    """Bonferroni's union of the levels every clean record meets: the catalogue's family
+    (FAMILY_ALPHA), the joint stage (calibrated to FAMILY_ALPHA / 2 per family, two
+    families: docs/mismatch.md 9.9) and the locate step (LOCATE_ALPHA, split inside it
+    between the two residual groups and their band and time tests,
+    :func:`tmopt.mismatch.diagnose._locate_state`).  At 0.01 each it was 0.03, past the
+    issue's 2 %."""
+    spent = cal.FAMILY_ALPHA + 2 * cal.FAMILY_ALPHA / 2 + cal.LOCATE_ALPHA
     assert spent <= ISSUE_BUDGET, spent
