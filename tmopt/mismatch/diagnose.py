@@ -177,6 +177,12 @@ class Settings:
     # carries the motion the noise drives there, where a late stamp's signature can
     # mostly lie (kernel 340140: profile ratio 18 with the tone part, 189 with the band)
     timing_regressor: str = TIMING_DEFAULT  # (the field `generic` hides the module here)
+    # read the generic line's frequency off the whole record, not only the longest gap-free
+    # segment's periodogram grid, its trials counted on the finer grid (:func:`generic.
+    # _refined_frequency`, docs 9.38): a force line between two grid frequencies of a
+    # gapped record lost its phase over the record (kernel 370108: `visible` 44.5, GLR 13
+    # at the grid's frequency, nothing reported).  Off until its paired test (9.38)
+    line_refine: bool = False
 
     def __post_init__(self) -> None:
         if not (0 < self.alpha < 1 and 0 < self.locate_alpha < 1):
@@ -191,7 +197,7 @@ class Settings:
         for name in ("generic", "joint", "rejudge", "in_place", "shape_search",
                      "shape_placements", "pairs", "true_position", "kin_refit",
                      "kin_profile", "onset_profile", "witness_refit",
-                     "convention_profile"):
+                     "convention_profile", "line_refine"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name} must be True or False; got {getattr(self, name)!r}")
         if self.timing_regressor not in generic.TIMING_REGRESSORS:
@@ -757,7 +763,8 @@ def _tests(data: Data, basis: np.ndarray, state: State, settings: Settings,
     applies to it (catalogue candidates; the generic features are always tested)."""
     ctx = Context(data, basis, state.eq_fit.residual, state.eq_noise)
     named = [c for effect in CATALOGUE for c in effect.candidates(ctx) if c.key not in exclude]
-    unnamed = generic.candidates(ctx, settings.timing_regressor) if settings.generic else []
+    unnamed = generic.candidates(ctx, settings.timing_regressor, settings.line_refine) \
+        if settings.generic else []  # fmt: skip
     groups = residual_groups(data, state)
     groups.update(_kin_groups(data, state, named + unnamed, settings))
     groups.update(_equation_alternatives(data, basis, state, settings))

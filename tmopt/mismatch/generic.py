@@ -314,9 +314,11 @@ def _curvatures(ctx: Context) -> list[Candidate]:
     return out
 
 
-def _lines(ctx: Context) -> list[Candidate]:
+def _lines(ctx: Context, refine: bool = False) -> list[Candidate]:
     """The strongest line on any axis away from the excitation tones (+-2 bins): whitened
-    periodogram of the longest segment projected on each axis's whitened direction."""
+    periodogram of the longest segment projected on each axis's whitened direction;
+    ``refine``: its frequency then read off the whole record (:func:`_refined_frequency`),
+    the trials counted on that finer grid (:data:`LINE_REFINE_STEPS`)."""
     d = ctx.data
     a0, b0 = d.longest.start, d.longest.stop
     m = b0 - a0
@@ -344,14 +346,44 @@ def _lines(ctx: Context) -> list[Candidate]:
     a, k = np.unravel_index(int(np.argmax(proj)), proj.shape)
     f0 = float(f[k])
     tt = d.time - d.time[0]
+    trials = 4.0 * float(ok.sum())
+    if refine:
+        span = float(tt[-1]) + d.dt
+        f0 = _refined_frequency(ctx, a, f0, df, span)
+        trials *= max(1.0, span * df)  # independent frequencies: 1/span apart, not df
     cols = [Column(f"{GENERIC}:line[{AXES[a]}]{j}",
                    axis_column(ctx.basis, a, fn(2 * math.pi * f0 * tt)))
             for j, fn in enumerate((np.sin, np.cos))]  # fmt: skip
     return [Candidate(GENERIC, AXES[a], "equation", ["line_sin", "line_cos"], ["m s^-2"] * 2,
-                      cols, None, trials=4.0 * float(ok.sum()),
+                      cols, None, trials=trials,
                       fixed={"feature": "line", "frequency_hz": f0}, n_searched=1,
                       text=f"unexplained: a force line at {f0:.5g} Hz on {AXES[a]} "
                            f"({TMS[AXES[a]]}), unrelated to the excitation tones")]  # fmt: skip
+
+
+#: Read a line's frequency off the whole record (``Settings.line_refine``; docs/mismatch.md
+#: 9.38).  The search's grid is the longest gap-free segment's periodogram, df = 1/T_seg;
+#: the line's columns span the whole record, T.  Where gaps cut the record, a line between
+#: two grid frequencies keeps its phase over T only at its own frequency: off by df/2 it
+#: loses most of its power (kernel 370108: a 4.175 mHz force line of `visible` 44.5
+#: placed at 4.428 mHz, GLR 13.0 -- nothing reported).
+LINE_REFINE_STEPS = 4  # grid points per 1/T (a quarter cycle over the record at most)
+
+
+def _refined_frequency(ctx: Context, a: int, f0: float, df: float, span: float) -> float:
+    """The frequency within ``f0 +- df`` whose sinusoid on axis ``a`` (whitened, both
+    phases) takes the most of the whitened equation residual, on a grid 1/(4 span)."""
+    d, white = ctx.data, ctx.eq_noise.whiten
+    tt = d.time - d.time[0]
+    r = white(ctx.eq_residual).ravel()
+    n = max(2, int(math.ceil(2.0 * df * span * LINE_REFINE_STEPS)) + 1)
+    best = (-1.0, f0)
+    for fq in np.linspace(max(f0 - df, df), f0 + df, n):
+        x = np.column_stack([white(axis_column(ctx.basis, a, fn(2 * math.pi * fq * tt))).ravel()
+                             for fn in (np.sin, np.cos)])  # fmt: skip
+        coef, *_ = np.linalg.lstsq(x, r, rcond=None)
+        best = max(best, (float(r @ (x @ coef)), float(fq)))
+    return best[1]
 
 
 def _series_candidate(ctx: Context, a: int, kind: str, series: np.ndarray, unit: str,
@@ -493,11 +525,13 @@ def _readout_timings(ctx: Context, regressor: str = TIMING_DEFAULT) -> list[Cand
     return out
 
 
-def candidates(ctx: Context, timing: str = TIMING_DEFAULT) -> list[Candidate]:
+def candidates(ctx: Context, timing: str = TIMING_DEFAULT,
+               line_refine: bool = False) -> list[Candidate]:  # fmt: skip
     """The generic features' best variants for this residual (see the module docstring);
-    ``timing``: the readout timing feature's regressor (:data:`TIMING_REGRESSORS`)."""
+    ``timing``: the readout timing feature's regressor (:data:`TIMING_REGRESSORS`);
+    ``line_refine``: the line's frequency read off the whole record (:func:`_lines`)."""
     if ctx.eq_residual is None or ctx.eq_noise is None or ctx.data.n < 64:
         return []
-    return (_steps(ctx) + _stiffness_steps(ctx) + _curvatures(ctx) + _lines(ctx)
+    return (_steps(ctx) + _stiffness_steps(ctx) + _curvatures(ctx) + _lines(ctx, line_refine)
             + _nonlinear(ctx) + _products(ctx)
             + (_readout_timings(ctx, timing) if READOUT_TIMING else []))  # fmt: skip
