@@ -1,9 +1,9 @@
 """A force line between two grid frequencies of the longest gap-free segment
-(``Settings.line_refine``, docs/mismatch.md 9.38): the line's columns span the whole
-record, so off its frequency by half the segment's bin they lose their phase and most of
-the line's power (kernel 370108: `visible` 44.5, GLR 13 at the grid's frequency, nothing
-reported).  Read off the whole record, the frequency is the line's and the evidence its.
-Development seed (< 20000)."""
+(``Settings.line_refine``, on by default since stop 63; docs/mismatch.md 9.38): the
+line's columns span the whole record, so off its frequency by half the segment's bin they
+lose their phase and most of the line's power (kernel 370108: `visible` 44.5, GLR 13 at
+the grid's frequency, nothing reported).  Read off the whole record, the frequency is the
+line's and the evidence its.  Development seed (< 20000)."""
 
 from __future__ import annotations
 
@@ -34,7 +34,7 @@ def gapped_line():
     data, basis = prepare(data_from_recording(rec))
     state = fit_state(data, basis, [], [], False, Settings())
     ctx = Context(data, basis, state.eq_fit.residual, state.eq_noise)
-    return ctx, residual_groups(data, state)["equation"], f_line
+    return ctx, residual_groups(data, state)["equation"], f_line, (data, basis, state)
 
 
 def _read(ctx, group, refine: bool) -> tuple[float, float, float]:
@@ -45,7 +45,7 @@ def _read(ctx, group, refine: bool) -> tuple[float, float, float]:
 
 
 def test_the_refined_line_sits_at_its_frequency_and_is_significant(gapped_line):
-    ctx, group, f_line = gapped_line
+    ctx, group, f_line, _ = gapped_line
     span = DURATION
     f, lam, p = _read(ctx, group, True)
     assert abs(f - f_line) <= 1.0 / (4 * span), (f, f_line)
@@ -55,7 +55,7 @@ def test_the_refined_line_sits_at_its_frequency_and_is_significant(gapped_line):
 def test_on_the_segments_grid_the_same_line_is_off_and_lost(gapped_line):
     """What the refinement is for: the grid's nearest frequency is half a bin off and its
     sinusoid keeps a small part of the line (GLR ~9 against ~70)."""
-    ctx, group, f_line = gapped_line
+    ctx, group, f_line, _ = gapped_line
     f, lam, p = _read(ctx, group, False)
     f_ref, lam_ref, _ = _read(ctx, group, True)
     assert abs(f - f_line) > 0.25 / (DURATION - GAP[1])
@@ -63,8 +63,20 @@ def test_on_the_segments_grid_the_same_line_is_off_and_lost(gapped_line):
 
 
 def test_the_refined_search_counts_its_finer_grid_in_its_trials(gapped_line):
-    ctx, _, _ = gapped_line
+    ctx, _, _, _ = gapped_line
     [coarse] = generic._lines(ctx, False)
     [fine] = generic._lines(ctx, True)
     longest = ctx.data.longest.stop - ctx.data.longest.start
     assert fine.trials == pytest.approx(coarse.trials * DURATION / (longest * ctx.data.dt))
+
+
+def test_the_tools_defaults_read_the_line_off_the_whole_record(gapped_line):
+    """On by default since 9.38's paired test: the first step's line candidate is the
+    refined one, and it is the step's most significant."""
+    from tmopt.mismatch.diagnose import _holm_adjusted, _tests
+
+    _, _, f_line, (data, basis, state) = gapped_line
+    evals = _holm_adjusted(_tests(data, basis, state, Settings(), set())[0])
+    [line] = [e for e in evals if (e.candidate.fixed or {}).get("feature") == "line"]
+    assert abs(line.candidate.fixed["frequency_hz"] - f_line) <= 1.0 / (4 * DURATION)
+    assert line.p_holm < 1e-6 and line is min(evals, key=lambda e: e.p_holm)
