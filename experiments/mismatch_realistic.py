@@ -211,8 +211,8 @@ def _limit(d0, basis, state, d1, name: str | None) -> dict:
     ctx = Context(d1, basis, s1.eq_fit.residual, s1.eq_noise)
     cands = [c for m in CATALOGUE for c in m.candidates(ctx)
              if c.group != "noise" and c.effect != name]  # fmt: skip
-    if name is not None:  # the unnamed shapes as the tool's defaults make them
-        cands += generic.candidates(ctx, line_refine=Settings().line_refine)
+    if name is not None:
+        cands += generic.candidates(ctx)
     best = (_snr_left(groups, []), "")
     visible = best[0]
     for cand in cands:

@@ -56,7 +56,7 @@ from tmopt.mismatch.fit import (
     solve,
     solve_iv,
 )
-from tmopt.mismatch.generic import TIMING_DEFAULT
+from tmopt.mismatch.generic import LINE_REFINE, TIMING_DEFAULT
 from tmopt.mismatch.locate import Locations, locate
 from tmopt.mismatch.noise_model import RED_EXPONENTS, NoiseModel, fit_red
 from tmopt.mismatch.plausibility import (
@@ -184,7 +184,7 @@ class Settings:
     # at the grid's frequency, nothing reported).  On since stop 63: on the never-seen
     # 380000 (first half) it found one line more at its channel and lost nothing, no false
     # alarm more there or on 120 clean calibration recordings (docs 9.38)
-    line_refine: bool = True
+    line_refine: bool = LINE_REFINE
 
     def __post_init__(self) -> None:
         if not (0 < self.alpha < 1 and 0 < self.locate_alpha < 1):

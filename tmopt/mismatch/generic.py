@@ -368,6 +368,8 @@ def _lines(ctx: Context, refine: bool = False) -> list[Candidate]:
 #: loses most of its power (kernel 370108: a 4.175 mHz force line of `visible` 44.5
 #: placed at 4.428 mHz, GLR 13.0 -- nothing reported).
 LINE_REFINE_STEPS = 4  # grid points per 1/T (a quarter cycle over the record at most)
+#: On by default since stop 63 (9.38's paired test); ``Settings.line_refine``'s default.
+LINE_REFINE = True
 
 
 def _refined_frequency(ctx: Context, a: int, f0: float, df: float, span: float) -> float:
@@ -526,7 +528,7 @@ def _readout_timings(ctx: Context, regressor: str = TIMING_DEFAULT) -> list[Cand
 
 
 def candidates(ctx: Context, timing: str = TIMING_DEFAULT,
-               line_refine: bool = False) -> list[Candidate]:  # fmt: skip
+               line_refine: bool = LINE_REFINE) -> list[Candidate]:  # fmt: skip
     """The generic features' best variants for this residual (see the module docstring);
     ``timing``: the readout timing feature's regressor (:data:`TIMING_REGRESSORS`);
     ``line_refine``: the line's frequency read off the whole record (:func:`_lines`)."""
