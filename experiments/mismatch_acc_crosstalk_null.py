@@ -37,21 +37,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 def statistics(rec) -> dict:
     """First-step statistics of every acc cross-talk candidate of one recording."""
-    from tmopt.mismatch.diagnose import (
-        Settings,
-        _holm_adjusted,
-        _tests,
-        fit_state,
-        prepare,
-        residual_groups,
-    )
+    from tmopt.mismatch.diagnose import Settings, evaluate, fit_state, prepare, residual_groups
     from tmopt.mismatch.effects.base import AXES
     from tmopt.mismatch.fit import data_from_recording
 
     data, basis = prepare(data_from_recording(rec))
     settings = Settings()
     state = fit_state(data, basis, [], [], False, settings)
-    evals = _holm_adjusted(_tests(data, basis, state, settings, set())[0])
+    evals = evaluate(data, basis, state, settings, set())
     groups = residual_groups(data, state)
     excited = [bool(data.tones(i)) for i in range(4)]
     rows = []

@@ -21,13 +21,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 def first_step(rec, refine: bool) -> dict:
     """The line candidate's reading and the first step's best, with or without refinement."""
-    from tmopt.mismatch.diagnose import Settings, _holm_adjusted, _tests, fit_state, prepare
+    from tmopt.mismatch.diagnose import Settings, evaluate, fit_state, prepare
     from tmopt.mismatch.fit import data_from_recording
 
     settings = Settings(line_refine=refine)
     data, basis = prepare(data_from_recording(rec))
     state = fit_state(data, basis, [], [], False, settings)
-    evals = _holm_adjusted(_tests(data, basis, state, settings, set())[0])
+    evals = evaluate(data, basis, state, settings, set())
     line = [e for e in evals if (e.candidate.fixed or {}).get("feature") == "line"]
     best = min(evals, key=lambda e: e.p_holm)
     out = {"best": best.candidate.key, "best_p_holm": best.p_holm}

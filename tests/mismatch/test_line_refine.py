@@ -46,9 +46,8 @@ def _read(ctx, group, refine: bool) -> tuple[float, float, float]:
 
 def test_the_refined_line_sits_at_its_frequency_and_is_significant(gapped_line):
     ctx, group, f_line, _ = gapped_line
-    span = DURATION
     f, lam, p = _read(ctx, group, True)
-    assert abs(f - f_line) <= 1.0 / (4 * span), (f, f_line)
+    assert abs(f - f_line) <= 1.0 / (4 * DURATION), (f, f_line)
     assert p < 1e-6, (lam, p)
 
 
@@ -73,10 +72,10 @@ def test_the_refined_search_counts_its_finer_grid_in_its_trials(gapped_line):
 def test_the_tools_defaults_read_the_line_off_the_whole_record(gapped_line):
     """On by default since 9.38's paired test: the first step's line candidate is the
     refined one, and it is the step's most significant."""
-    from tmopt.mismatch.diagnose import _holm_adjusted, _tests
+    from tmopt.mismatch.diagnose import evaluate
 
     _, _, f_line, (data, basis, state) = gapped_line
-    evals = _holm_adjusted(_tests(data, basis, state, Settings(), set())[0])
+    evals = evaluate(data, basis, state, Settings(), set())
     [line] = [e for e in evals if (e.candidate.fixed or {}).get("feature") == "line"]
     assert abs(line.candidate.fixed["frequency_hz"] - f_line) <= 1.0 / (4 * DURATION)
     assert line.p_holm < 1e-6 and line is min(evals, key=lambda e: e.p_holm)

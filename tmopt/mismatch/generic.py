@@ -348,8 +348,7 @@ def _lines(ctx: Context, refine: bool = False) -> list[Candidate]:
     tt = d.time - d.time[0]
     trials = 4.0 * float(ok.sum())
     if refine:
-        span = float(tt[-1]) + d.dt
-        f0 = _refined_frequency(ctx, a, f0, df, span)
+        f0, span = _refined_frequency(ctx, a, f0, df, tt)
         trials *= max(1.0, span * df)  # independent frequencies: 1/span apart, not df
     cols = [Column(f"{GENERIC}:line[{AXES[a]}]{j}",
                    axis_column(ctx.basis, a, fn(2 * math.pi * f0 * tt)))
@@ -372,11 +371,13 @@ LINE_REFINE_STEPS = 4  # grid points per 1/T (a quarter cycle over the record at
 LINE_REFINE = True
 
 
-def _refined_frequency(ctx: Context, a: int, f0: float, df: float, span: float) -> float:
+def _refined_frequency(ctx: Context, a: int, f0: float, df: float,
+                       tt: np.ndarray) -> tuple[float, float]:  # fmt: skip
     """The frequency within ``f0 +- df`` whose sinusoid on axis ``a`` (whitened, both
-    phases) takes the most of the whitened equation residual, on a grid 1/(4 span)."""
-    d, white = ctx.data, ctx.eq_noise.whiten
-    tt = d.time - d.time[0]
+    phases) takes the most of the whitened equation residual, on a grid 1/(4 span) --
+    and the span [s]; ``tt`` (N,): the record's times from its start."""
+    white = ctx.eq_noise.whiten
+    span = float(tt[-1]) + ctx.data.dt
     r = white(ctx.eq_residual).ravel()
     n = max(2, int(math.ceil(2.0 * df * span * LINE_REFINE_STEPS)) + 1)
     best = (-1.0, f0)
@@ -385,7 +386,7 @@ def _refined_frequency(ctx: Context, a: int, f0: float, df: float, span: float) 
                              for fn in (np.sin, np.cos)])  # fmt: skip
         coef, *_ = np.linalg.lstsq(x, r, rcond=None)
         best = max(best, (float(r @ (x @ coef)), float(fq)))
-    return best[1]
+    return best[1], span
 
 
 def _series_candidate(ctx: Context, a: int, kind: str, series: np.ndarray, unit: str,
