@@ -37,7 +37,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 def statistics(rec) -> dict:
     """First-step statistics of every acc cross-talk candidate of one recording."""
-    from tmopt.mismatch.diagnose import Settings, evaluate, fit_state, prepare, residual_groups
+    from tmopt.mismatch.diagnose import (
+        Settings,
+        _score_correlation,
+        evaluate,
+        fit_state,
+        prepare,
+        residual_groups,
+    )
     from tmopt.mismatch.effects.base import AXES
     from tmopt.mismatch.fit import data_from_recording
 
@@ -55,9 +62,13 @@ def statistics(rec) -> dict:
         a, b = (AXES.index(s) for s in cand.channel[4:].split("<-"))
         b1, s1 = groups["equation"].estimate(cand.columns[0])
         b2, s2 = groups["kinematic"].estimate(cand.twin)
+        rho = _score_correlation(groups["equation"].scores(cand.columns[0]),
+                                 groups["kinematic"].scores(cand.twin),
+                                 groups["kinematic"].index)  # fmt: skip
         rows.append({"key": cand.key, "a_excited": excited[a], "b_excited": excited[b],
                      "glr": ev.glr, "p_holm": ev.p_holm, "z_eq": b1 / s1,
-                     "z_kin": b2 / s2 if np.isfinite(s2) else None})  # fmt: skip
+                     "z_kin": b2 / s2 if np.isfinite(s2) else None,
+                     "s_ratio": s1 / s2 if np.isfinite(s2) else None, "rho": rho})  # fmt: skip
     best = min(evals, key=lambda e: e.p_holm)
     return {"candidates": len(evals), "acc": rows, "best": best.candidate.key,
             "best_p_holm": best.p_holm}  # fmt: skip

@@ -185,6 +185,13 @@ class Settings:
     # 380000 (first half) it found one line more at its channel and lost nothing, no false
     # alarm more there or on 120 clean calibration recordings (docs 9.38)
     line_refine: bool = LINE_REFINE
+    # combine the two estimates of a parameter seen by both groups (an accelerometer
+    # cross-talk, a one-tap actuation delay) with their correlation read from the
+    # recording (:func:`_joint`, :func:`_score_correlation`, docs 9.39): a's own
+    # accelerometer noise is in both residuals, and where both axes are excited the two
+    # estimates were correlated ~0.2, their independent combination inflated ~1.2x
+    # (docs 9.37: foreign 370050's clean draw named acc:x2<-y2 at Holm p 0.004)
+    joint_correlation: bool = False
 
     def __post_init__(self) -> None:
         if not (0 < self.alpha < 1 and 0 < self.locate_alpha < 1):
@@ -199,7 +206,7 @@ class Settings:
         for name in ("generic", "joint", "rejudge", "in_place", "shape_search",
                      "shape_placements", "pairs", "true_position", "kin_refit",
                      "kin_profile", "onset_profile", "witness_refit",
-                     "convention_profile", "line_refine"):
+                     "convention_profile", "line_refine", "joint_correlation"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name} must be True or False; got {getattr(self, name)!r}")
         if self.timing_regressor not in generic.TIMING_REGRESSORS:
@@ -454,7 +461,9 @@ class _Group:
     def __init__(self, target, cols, fit: FitResult, whiten):
         self.whiten = whiten
         self.q = _orth(cols, whiten)
-        self.r0 = whiten(fit.residual).ravel()
+        r0 = whiten(fit.residual)
+        self.rows = r0.shape[0]
+        self.r0 = r0.ravel()
         self.rss0 = float(self.r0 @ self.r0)
         self.n = self.r0.size
 
@@ -470,6 +479,17 @@ class _Group:
             return 0.0, math.inf
         s2 = self.rss0 / self.n
         return float(xp @ self.r0) / nn, math.sqrt(s2 / nn)
+
+    def scores(self, col: Column) -> np.ndarray | None:
+        """(M,): the column's coefficient estimate as a sum over samples (rows summed),
+        ``b - beta = sum_t s_t``, with the residual under the alternative (None: the
+        column is inside the fitted span).  :func:`_score_correlation` reads it."""
+        xp = self.perp([col])[:, 0]
+        nn = float(xp @ xp)
+        if nn == 0:
+            return None
+        r = self.r0 - xp * (float(xp @ self.r0) / nn)
+        return (xp * r / nn).reshape(self.rows, -1).sum(0)
 
     def glr(self, cols: list[Column]) -> float:
         xp = self.perp(cols)
@@ -513,8 +533,11 @@ class _IVGroup:
     narrowband test there must use the noise it actually meets (conservative: never
     multiplied up)."""
 
-    def __init__(self, target, cols, whiten, residual=None, fs: float = 1.0, layout=None):
+    def __init__(self, target, cols, whiten, residual=None, fs: float = 1.0, layout=None,
+                 index: np.ndarray | None = None):  # fmt: skip
         self.whiten = whiten
+        self.index = index  # each row's sample in the record (Data.kin_index)
+        self.rows = target.shape[0]
         self.y = whiten(target).ravel()
         self.n = self.y.size
         self.x = [whiten(c.values).ravel() for c in cols]
@@ -570,8 +593,10 @@ class _IVGroup:
         inside = self.q @ (self.q.T @ xm)
         return bool(np.all(np.sum((xm - inside) ** 2, 0) > 1e-6 * np.sum(xm**2, 0)))
 
-    def _fit(self, cols: list[Column]) -> tuple[np.ndarray, np.ndarray] | None:
-        """IV coefficients and covariance of the added columns (None: not testable)."""
+    def _fit(self, cols: list[Column], scores: bool = False):
+        """IV coefficients and covariance of the added columns (None: not testable); with
+        ``scores``, the last column's estimate as a sum over samples (rows summed, the
+        residual under the alternative; :meth:`_Group.scores`) instead."""
         if all(c.instrument is not None and not np.any(c.instrument) for c in cols):
             return None  # no excitation on the source axis
         x_new, z_new = self._new(cols)
@@ -584,6 +609,8 @@ class _IVGroup:
         ainv = np.linalg.pinv(z.T @ x)
         coef = ainv @ (z.T @ self.y)
         r = self.y - x @ coef
+        if scores:
+            return ((z @ ainv[-1]) * r / sx[-1]).reshape(self.rows, -1).sum(0)
         cov = ainv @ hc_meat(z, r) @ ainv.T / np.outer(sx, sx)
         k = len(cols)
         return (coef / sx)[-k:], cov[-k:, -k:]
@@ -595,6 +622,10 @@ class _IVGroup:
             return 0.0, math.inf
         var = max(res[1][0, 0], 0.0) * max(1.0, self.local_level(col))
         return float(res[0][0]), float(math.sqrt(var))
+
+    def scores(self, col: Column) -> np.ndarray | None:
+        """:meth:`_Group.scores` of the IV fit (None: not testable)."""
+        return self._fit([col], scores=True)
 
     def glr(self, cols: list[Column]) -> float:
         res = self._fit(cols)
@@ -608,12 +639,60 @@ class _IVGroup:
 def _joint(cand: Candidate, groups: dict) -> float:
     """LR of one parameter seen in both groups (an accelerometer error breaks Eq. 10 *and*
     the kinematics): for two Gaussian estimates of the same value, the LR against zero is
-    that of their inverse-variance mean, so a twin that sees nothing vetoes the candidate."""
+    that of their generalised least-squares mean, so a twin that sees nothing vetoes the
+    candidate.  Their correlation is 0 unless ``groups["joint_correlation"]`` holds
+    (``Settings.joint_correlation``): then it is :func:`_score_correlation`'s."""
     b1, s1 = groups["equation"].estimate(cand.columns[0])
     b2, s2 = groups["kinematic"].estimate(cand.twin)
-    w1, w2 = 1 / s1**2, (0.0 if math.isinf(s2) else 1 / s2**2)
-    mean = (w1 * b1 + w2 * b2) / (w1 + w2)
-    return float(mean**2 * (w1 + w2))
+    if math.isinf(s1) or math.isinf(s2):  # one group cannot see it: the other's alone
+        return 0.0 if math.isinf(s1) and math.isinf(s2) else \
+            float((b2 / s2) ** 2 if math.isinf(s1) else (b1 / s1) ** 2)  # fmt: skip
+    rho = 0.0
+    if groups.get("joint_correlation"):
+        rho = _score_correlation(groups["equation"].scores(cand.columns[0]),
+                                 groups["kinematic"].scores(cand.twin),
+                                 groups["kinematic"].index)  # fmt: skip
+    return gls_mean_lr(b1, s1, b2, s2, rho)
+
+
+def gls_mean_lr(b1: float, s1: float, b2: float, s2: float, rho: float) -> float:
+    """LR against zero of the common value of two Gaussian estimates ``b1 +- s1``, ``b2 +-
+    s2`` with correlation ``rho``: ``(1' S^-1 b)^2 / (1' S^-1 1)`` (the GLS mean's squared
+    z-score; Aitken 1935).  With ``rho = 0`` the inverse-variance mean's."""
+    c = rho * s1 * s2
+    num = b1 * (s2**2 - c) + b2 * (s1**2 - c)
+    den = (s1**2 * s2**2 - c**2) * (s1**2 + s2**2 - 2 * c)
+    return float(num**2 / den) if den > 0 else float((b1 / s1) ** 2)
+
+
+#: Lags of the Bartlett window in :func:`_score_correlation`: the whitened residuals of the
+#: two groups are each near white, but through different whitening filters the noise they
+#: share is spread over a few samples about lag 0.
+SCORE_LAGS = 40
+
+
+def _score_correlation(eq: np.ndarray | None, kin: np.ndarray | None,
+                       index: np.ndarray | None, lags: int = SCORE_LAGS) -> float:  # fmt: skip
+    """Correlation of two estimates from their scores (``b - beta = sum_t s_t``; the
+    equation group's on every sample, the kinematic group's on the samples ``index``):
+    a Bartlett-weighted long-run (co)variance of the scores (Newey & West, Econometrica
+    55, 703 (1987)) -- each score is a narrowband column times its whitened residual, so
+    this is the two residuals' cross-spectrum at the column's frequencies, read from the
+    recording.  0 where either is missing."""
+    if eq is None or kin is None or index is None:
+        return 0.0
+    k = np.zeros_like(eq)
+    k[index] = kin
+
+    def lrv(a: np.ndarray, b: np.ndarray) -> float:
+        tot = float(a @ b)
+        for lag in range(1, lags + 1):
+            w = 1.0 - lag / (lags + 1)
+            tot += w * float(a[:-lag] @ b[lag:] + b[:-lag] @ a[lag:])
+        return tot
+
+    v1, v2 = lrv(eq, eq), lrv(k, k)
+    return float(np.clip(lrv(eq, k) / math.sqrt(v1 * v2), -1, 1)) if v1 > 0 and v2 > 0 else 0.0
 
 
 def _statistic(cand: Candidate, groups: dict) -> float:
@@ -748,14 +827,17 @@ def evaluate(data: Data, basis: np.ndarray, state: State, settings: Settings,
     return _holm_adjusted(_tests(data, basis, state, settings, exclude)[0])
 
 
-def residual_groups(data: Data, state: State) -> dict:
+def residual_groups(data: Data, state: State, settings: Settings | None = None) -> dict:
     """The two residual groups of ``state`` as candidates are tested against them
-    (``{"equation": _Group, "kinematic": _IVGroup}``; their ``glr(columns)``)."""
+    (``{"equation": _Group, "kinematic": _IVGroup}``; their ``glr(columns)``), and
+    whether a twin pair's two estimates are combined with their correlation
+    (``"joint_correlation"``, :func:`_joint`; ``settings``' switch, off without it)."""
     return {
         "equation": _Group(None, state.eq_cols, state.eq_fit, state.eq_noise.whiten),
         "kinematic": _IVGroup(state.kinematic_target(data), state.kin_cols,
                               state.kin_noise.whiten, state.kin_fit.residual, data.fs,
-                              data.kin_layout),
+                              data.kin_layout, data.kin_index),
+        "joint_correlation": settings is not None and settings.joint_correlation,
     }
 
 
@@ -767,7 +849,7 @@ def _tests(data: Data, basis: np.ndarray, state: State, settings: Settings,
     named = [c for effect in CATALOGUE for c in effect.candidates(ctx) if c.key not in exclude]
     unnamed = generic.candidates(ctx, settings.timing_regressor, settings.line_refine) \
         if settings.generic else []  # fmt: skip
-    groups = residual_groups(data, state)
+    groups = residual_groups(data, state, settings)
     groups.update(_kin_groups(data, state, named + unnamed, settings))
     groups.update(_equation_alternatives(data, basis, state, settings))
     out = []
@@ -1173,7 +1255,7 @@ def _given(data, basis, chosen: list[Evaluation], i: int, settings: Settings,
         lam, dof, n, trials = ev.glr, ev.dof, ev.n_obs, len(RED_EXPONENTS)
         sig = _null_glr(cand, lam, settings)
     else:
-        groups = residual_groups(data, st)
+        groups = residual_groups(data, st, settings)
         if cand.group == "kinematic" and (settings.kin_refit or settings.kin_profile):
             kin = _kin_candidates(data, basis, st, settings)
             kin += [cand] if cand.key not in {c.key for c in kin} else []
