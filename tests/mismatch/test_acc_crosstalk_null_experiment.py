@@ -49,3 +49,14 @@ def test_summary_counts_tails_and_the_two_estimates_correlation(accnull, capsys)
     assert "correlation of the two z-scores: 1.000 over 4" in text
     assert "the acc family's share 0.250 of the Holm level" in text
     assert "target unexcited, source unexcited: n 2, mean 6.25" in text
+
+
+def test_summary_sets_the_correlated_statistic_beside_the_independent_one(accnull, capsys):
+    rows = [{"candidates": 8, "acc": [
+        {"glr": g, "glr_corr": gc, "rho": r, "z_eq": 1.0, "z_kin": 1.0, "a_excited": True,
+         "b_excited": True} for g, gc, r in ((8.0, 6.0, 0.3), (1.0, 0.9, 0.1))]}]  # fmt: skip
+    accnull.summarise(rows)
+    text = capsys.readouterr().out
+    assert "all (n 2, mean rho +0.200): independent mean 4.500, beyond the 0.01 level " \
+        "0.5000" in text  # fmt: skip
+    assert "correlated mean 3.450, beyond the 0.01 level 0.0000" in text
