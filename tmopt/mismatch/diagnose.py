@@ -666,8 +666,10 @@ def gls_mean_lr(b1: float, s1: float, b2: float, s2: float, rho: float) -> float
 
 
 #: Lags of the Bartlett window in :func:`_score_correlation`: the whitened residuals of the
-#: two groups are each near white, but through different whitening filters the noise they
-#: share is spread over a few samples about lag 0.
+#: two groups are each near white, but through different whitening filters (and tapers)
+#: the noise they share is spread over tens of samples about lag 0 -- on 37 development
+#: statistics the estimate was 0.015 at lag 0, 0.146 at 20, 0.189 at 80 lags, its spread
+#: 0.12 at 20 and 0.17 at 80, against the z-scores' own 0.22 (docs 9.39).
 SCORE_LAGS = 40
 
 
