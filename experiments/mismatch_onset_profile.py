@@ -1,11 +1,14 @@
-"""A generic force step or relaxation read by its profile likelihood ratio (docs/mismatch.md
-9.30; :func:`tmopt.mismatch.diagnose._onset_profile`, ``Settings.onset_profile``).
+"""A generic force step or relaxation -- or, with ``--feature line``, a force line -- read
+by its profile likelihood ratio (docs/mismatch.md 9.30, 9.40;
+:func:`tmopt.mismatch.diagnose._equation_profile`, ``Settings.onset_profile``,
+``Settings.line_profile``).
 
     python experiments/mismatch_onset_profile.py null --seed-base 37370 --n 30 \
         --out results/mismatch_onset_profile/null.jsonl
     python experiments/mismatch_onset_profile.py summary results/mismatch_onset_profile/null.jsonl
     python experiments/mismatch_onset_profile.py case kernel:280112 foreign:270118
     python experiments/mismatch_onset_profile.py cost kernel:280112 foreign:280012
+    python experiments/mismatch_onset_profile.py --feature line null --seed-base 37480 --n 20
 
 * ``null`` -- clean flight-like recordings of both simulators (calibration seeds < 40000),
   the nominal fit: every onset feature's candidate (a step and a relaxation per axis, each
@@ -38,14 +41,19 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 CATALOGUE_SIZE = 150
 
 
-def onset_statistics(rec) -> list[dict]:
-    """Every onset feature's candidate of the recording's nominal fit: ``feature``,
-    ``channel``, ``t0_s``, ``L``, ``L_prof``, ``trials``, ``p`` and ``p_prof``."""
+#: ``--feature``: the generic features read, and the option that reads them.
+FEATURES = {"onset": "onset_profile", "line": "line_profile"}
+
+
+def onset_statistics(rec, feature: str = "onset") -> list[dict]:
+    """Every onset feature's (``feature`` "line": line feature's) candidate of the
+    recording's nominal fit: ``feature``, ``channel``, ``t0_s`` (a line's
+    ``frequency_hz``), ``L``, ``L_prof``, ``trials``, ``p`` and ``p_prof``."""
     from tmopt.mismatch import generic
     from tmopt.mismatch.diagnose import (
         Settings,
         _equation_alternatives,
-        _onset,
+        _generic_feature,
         fit_state,
         prepare,
         residual_groups,
@@ -54,37 +62,38 @@ def onset_statistics(rec) -> list[dict]:
     from tmopt.mismatch.fit import data_from_recording
 
     d, basis = prepare(data_from_recording(rec))
-    st = Settings(onset_profile=True)
+    st = Settings(**{FEATURES[feature]: True})
     s = fit_state(d, basis, [], [], False, st)
     ctx = Context(d, basis, s.eq_fit.residual, s.eq_noise)
     group = residual_groups(d, s)["equation"]
     profile = _equation_alternatives(d, basis, s, st)["equation_profile"]
     out = []
-    for c in generic.candidates(ctx):
-        if not _onset(c) or c.group != "equation":
+    read = profile.features
+    for c in generic.candidates(ctx, st.timing_regressor, st.line_refine):
+        if _generic_feature(c) not in read:
             continue
         lam = group.glr(c.columns)
         prof = profile(c.columns, float("inf"))  # past the screen: the ratio itself
         dof = len(c.columns)
         out.append({"feature": c.fixed["feature"], "channel": c.channel,
-                    "t0_s": c.fixed.get("t0_s"), "L": lam, "L_prof": prof,
+                    "t0_s": c.fixed.get("t0_s", c.fixed.get("frequency_hz")), "L": lam,
+                    "L_prof": prof,
                     "trials": c.trials,
                     "p": min(1.0, c.trials * float(stats.chi2.sf(lam, dof))),
                     "p_prof": min(1.0, c.trials * float(stats.chi2.sf(prof, dof)))})  # fmt: skip
     return out
 
 
-def null(seed_base: int, n: int, out: Path) -> None:
+def null(seed_base: int, n: int, out: Path, feature: str = "onset") -> None:
     from mismatch_realistic import clean_recording, per_recording
 
-    per_recording(seed_base, n, out,
-                  lambda b, seed, i: {"rows": onset_statistics(clean_recording(seed, b))},
-                  _shown)  # fmt: skip
+    per_recording(seed_base, n, out, lambda b, seed, i: {
+        "rows": onset_statistics(clean_recording(seed, b), feature)}, _shown)
 
 
 def _shown(row: dict) -> str:
     top = max(row["rows"], key=lambda r: r["L_prof"]) if row["rows"] else None
-    return f"{row['backend']} {row['seed']}: {len(row['rows'])} onset candidates" + (
+    return f"{row['backend']} {row['seed']}: {len(row['rows'])} candidates" + (
         f", largest L_prof {top['L_prof']:.1f} ({top['feature']} {top['channel']}, "
         f"L {top['L']:.1f})" if top else "")  # fmt: skip
 
@@ -96,7 +105,7 @@ def summary(paths: list[str]) -> None:
     rows = [(r["backend"], r["seed"], c) for r in recs for c in r["rows"]]
     lam = np.array([c["L"] for *_, c in rows])
     prof = np.array([c["L_prof"] for *_, c in rows])
-    print(f"{len(recs)} clean recordings, {len(rows)} onset candidates")
+    print(f"{len(recs)} clean recordings, {len(rows)} candidates")
     if not rows:
         return
     d = prof - lam
@@ -116,14 +125,14 @@ def summary(paths: list[str]) -> None:
         f"L {lam[i]:.1f} L_prof {prof[i]:.1f}" for i in order))  # fmt: skip
 
 
-def case(specs: list[str]) -> None:
+def case(specs: list[str], feature: str = "onset") -> None:
     from mismatch_realistic import case_recording
 
     for spec in specs:
         b, seed = spec.split(":")
         rec, _ = case_recording(b, int(seed))
-        for c in sorted(onset_statistics(rec), key=lambda c: c["p_prof"]):
-            print(f"{spec} {c['feature']}[{c['channel']}] t0 {c['t0_s']:.1f} s: L {c['L']:.1f} "
+        for c in sorted(onset_statistics(rec, feature), key=lambda c: c["p_prof"]):
+            print(f"{spec} {c['feature']}[{c['channel']}] at {c['t0_s']:.6g}: L {c['L']:.1f} "
                   f"(p {c['p']:.2g}), L_prof {c['L_prof']:.1f} (p {c['p_prof']:.2g}), "
                   f"trials {c['trials']:.0f}")  # fmt: skip
 
@@ -132,6 +141,7 @@ def main(argv: list[str] | None = None) -> int:
     from mismatch_realistic import add_null_parser, null_args_error
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--feature", choices=sorted(FEATURES), default="onset")
     sub = ap.add_subparsers(dest="cmd", required=True)
     add_null_parser(sub, "null", 37370, 30, "results/mismatch_onset_profile/null.jsonl")
     sub.add_parser("summary").add_argument("paths", nargs="+")
@@ -142,15 +152,15 @@ def main(argv: list[str] | None = None) -> int:
         if error := null_args_error(a):
             print(error, file=sys.stderr)
             return 2
-        null(a.seed_base, a.n, Path(a.out))
+        null(a.seed_base, a.n, Path(a.out), a.feature)
     elif a.cmd == "summary":
         summary(a.paths)
     elif a.cmd == "case":
-        case(a.recordings)
+        case(a.recordings, a.feature)
     else:
         from mismatch_kin_alternative import cost
 
-        cost(a.recordings, "onset_profile")
+        cost(a.recordings, FEATURES[a.feature])
     return 0
 
 

@@ -79,3 +79,24 @@ def test_the_tools_defaults_read_the_line_off_the_whole_record(gapped_line):
     [line] = [e for e in evals if (e.candidate.fixed or {}).get("feature") == "line"]
     assert abs(line.candidate.fixed["frequency_hz"] - f_line) <= 1.0 / (4 * DURATION)
     assert line.p_holm < 1e-6 and line is min(evals, key=lambda e: e.p_holm)
+
+
+def test_line_profile_reads_the_lines_significance_by_its_profile_ratio(gapped_line):
+    """``Settings.line_profile`` (off; docs 9.40): the line's p-value reads its profile
+    ratio -- the equation noise model estimated again with the line fitted, which the
+    null's spline had taken in (ratio > GLR) -- and keeps its GLR's p-value beside it; an
+    onset's significance is not read so (that is ``onset_profile``'s)."""
+    from tmopt.mismatch.diagnose import _equation_alternatives, _generic_feature, evaluate
+
+    _, _, _, (data, basis, state) = gapped_line
+    on = Settings(line_profile=True)
+    by = {s: {_generic_feature(e.candidate): e for e in evaluate(data, basis, state, s, set())}
+          for s in (on, Settings())}  # fmt: skip
+    line_on, line_off = by[on]["line"], by[Settings()]["line"]
+    ratio = _equation_alternatives(data, basis, state, on)["equation_profile"](
+        line_on.candidate.columns, float("inf"))
+    assert ratio > line_on.glr == pytest.approx(line_off.glr)
+    assert line_on.p_value == pytest.approx(min(1.0, line_on.candidate.trials *
+                                                stats.chi2.sf(ratio, 2)), rel=1e-9)
+    assert line_on.p_glr == pytest.approx(line_off.p_value) and line_off.p_glr is None
+    assert by[on]["step"].p_glr is None  # an onset: not read by line_profile

@@ -1,5 +1,5 @@
 """A generic force step or relaxation read by its profile likelihood ratio (issue 26;
-docs/mismatch.md 9.30; :func:`tmopt.mismatch.diagnose._onset_profile`).
+docs/mismatch.md 9.30; :func:`tmopt.mismatch.diagnose._equation_profile`).
 
 A lasting force step puts its power in the lowest bins of the equation residual, where
 the acceleration noise's 1/f^2 spectrum rests on a few periodogram bins: the null's noise

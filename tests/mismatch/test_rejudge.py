@@ -131,7 +131,7 @@ def test_a_near_alternative_the_data_still_need_the_effect_beside_is_no_rival():
 
 @pytest.mark.parametrize("name", ["rejudge", "in_place", "joint", "generic", "shape_search",
                                   "shape_placements", "pairs", "kin_refit", "line_refine",
-                                  "joint_correlation"])
+                                  "joint_correlation", "line_profile"])
 def test_a_switch_that_is_not_a_bool_is_refused_in_one_line(name):
     with pytest.raises(ValueError, match=f"^{name} must be True or False; got 'yes'$"):
         Settings(**{name: "yes"})

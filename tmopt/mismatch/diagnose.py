@@ -151,7 +151,7 @@ class Settings:
     kin_profile: bool = True
     # judge the significance of a force step or relaxation (the generic onset features,
     # :mod:`generic`) by its profile likelihood ratio: its column fitted *and* the
-    # equation group's noise model estimated again under it (:func:`_onset_profile`,
+    # equation group's noise model estimated again under it (:func:`_equation_profile`,
     # docs 9.30; the ranking keeps the GLR).  A lasting force step is a 1/f^2 feature like
     # the acceleration noise, and the null's spectrum takes it in (kernel 280112, SNR 39:
     # GLR 31.7, profile 88.8).  An onset significant only by its ratio ranks after every
@@ -192,6 +192,12 @@ class Settings:
     # estimates were correlated ~0.2, their independent combination inflated ~1.2x
     # (docs 9.37: foreign 370050's clean draw named acc:x2<-y2 at Holm p 0.004)
     joint_correlation: bool = False
+    # judge a generic force line's significance by its profile likelihood ratio, as
+    # onset_profile judges an onset's (:func:`_equation_profile`, docs 9.40): the null's
+    # spline takes a low line's power in -- its bump carried down to the band's end by
+    # the roughness penalty (kernel 370108: the model 8-14x the clean PSD at the line,
+    # GLR 87.8, profile ratio 306.3).  Off: its null is not yet calibrated
+    line_profile: bool = False
 
     def __post_init__(self) -> None:
         if not (0 < self.alpha < 1 and 0 < self.locate_alpha < 1):
@@ -206,7 +212,8 @@ class Settings:
         for name in ("generic", "joint", "rejudge", "in_place", "shape_search",
                      "shape_placements", "pairs", "true_position", "kin_refit",
                      "kin_profile", "onset_profile", "witness_refit",
-                     "convention_profile", "line_refine", "joint_correlation"):
+                     "convention_profile", "line_refine", "joint_correlation",
+                     "line_profile"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name} must be True or False; got {getattr(self, name)!r}")
         if self.timing_regressor not in generic.TIMING_REGRESSORS:
@@ -255,7 +262,7 @@ class Evaluation:
     p_value: float
     p_holm: float = 1.0
     #: where the p-value read another statistic than the GLR (a generic onset's profile
-    #: ratio, :func:`_onset_profile`): the p-value its GLR would give, and Holm's
+    #: ratio, :func:`_equation_profile`): the p-value its GLR would give, and Holm's
     #: adjustment of it among the step's others (:func:`_holm_adjusted`)
     p_glr: float | None = None
     p_holm_glr: float = 1.0
@@ -726,16 +733,37 @@ def _statistic(cand: Candidate, groups: dict) -> float:
 
 def _onset(cand: Candidate) -> bool:
     """A generic onset feature of the equation group (:data:`ONSET_FEATURES`), whose
-    significance :func:`_onset_profile` may read."""
-    return cand.group == "equation" and cand.effect == generic.GENERIC and \
-        (cand.fixed or {}).get("feature") in ONSET_FEATURES  # fmt: skip
+    significance :func:`_equation_profile` may read."""
+    return _generic_feature(cand) in ONSET_FEATURES
 
 
-#: The generic features :func:`_onset_profile` reads: a force that steps, or relaxes, to
-#: a new level and stays there -- power at the lowest frequencies, where the acceleration
-#: noise's 1/f^2 spectrum rests on a few periodogram bins.  Not ``curvature``: its null
-#: is calibrated as a GLR (``Settings.lowfreq``).
+def _generic_feature(cand: Candidate) -> str | None:
+    """The feature of a generic equation candidate (None for any other)."""
+    if cand.group != "equation" or cand.effect != generic.GENERIC:
+        return None
+    return (cand.fixed or {}).get("feature")
+
+
+#: The generic features :func:`_equation_profile` reads with ``onset_profile``: a force
+#: that steps, or relaxes, to a new level and stays there -- power at the lowest
+#: frequencies, where the acceleration noise's 1/f^2 spectrum rests on a few periodogram
+#: bins.  Not ``curvature``: its null is calibrated as a GLR (``Settings.lowfreq``).
 ONSET_FEATURES = ("step", "relaxation")
+#: ... and with ``line_profile``: a force line (docs 9.40).
+LINE_FEATURES = ("line",)
+
+
+def profiled_features(settings: Settings) -> tuple[str, ...]:
+    """The generic features whose significance reads their profile ratio."""
+    return (ONSET_FEATURES if settings.onset_profile else ()) + \
+        (LINE_FEATURES if settings.line_profile else ())  # fmt: skip
+
+
+def _profiled(cand: Candidate, groups: dict) -> bool:
+    """Whether ``cand``'s significance reads the equation profile ratio
+    (``groups["equation_profile"]``, :func:`_equation_profile`)."""
+    profile = groups.get("equation_profile")
+    return profile is not None and _generic_feature(cand) in profile.features
 
 
 def _witness_moves(cand: Candidate) -> bool:
@@ -749,15 +777,27 @@ def _equation_alternatives(data: Data, basis: np.ndarray, state: State,
                            settings: Settings) -> dict:  # fmt: skip
     """The equation group's readings under the alternative for ``state``, None where
     off: ``groups["witness_alt"]`` (:func:`_witness_alternative`) and
-    ``groups["equation_profile"]`` (:func:`_onset_profile`)."""
+    ``groups["equation_profile"]`` (:func:`_equation_profile`)."""
     return {"witness_alt": _witness_alternative(data, basis, state, settings),
-            "equation_profile": _onset_profile(data, basis, state, settings)}
+            "equation_profile": _equation_profile(data, basis, state, settings)}
 
 
-def _onset_profile(data: Data, basis: np.ndarray, state: State, settings: Settings):
-    """``(columns, L) -> statistic`` for a generic onset feature (:func:`_onset`), or
-    None when ``settings.onset_profile`` is off or the equation noise model is not the
-    smoothed one: the profile likelihood ratio of adding its columns, the equation
+class _ProfileReader:
+    """``(columns, L) -> statistic``: the profile ratio where ``L`` reaches
+    :data:`PROFILE_SCREEN`, else ``L``; ``features``: the generic features it reads."""
+
+    def __init__(self, ratio, features: tuple[str, ...]):
+        self.ratio, self.features = ratio, features
+
+    def __call__(self, cols: list[Column], lam: float) -> float:
+        return lam if lam < PROFILE_SCREEN else self.ratio(cols)
+
+
+def _equation_profile(data: Data, basis: np.ndarray, state: State, settings: Settings):
+    """A :class:`_ProfileReader` for the generic features of
+    :func:`profiled_features` (an onset with ``settings.onset_profile``, a line with
+    ``settings.line_profile``), or None when neither is on or the equation noise model is
+    not the smoothed one: the profile likelihood ratio of adding its columns, the equation
     group's noise model estimated again under each model (as :func:`_kin_profile`:
     :meth:`NoiseModel.whittle_loglik` less the roughness penalty, over
     :meth:`NoiseModel.taper_inflation`), where ``L`` reaches
@@ -773,12 +813,13 @@ def _onset_profile(data: Data, basis: np.ndarray, state: State, settings: Settin
     and the ambiguity band compare raw GLRs, so a catalogue drift -- whose ramp the null's
     spectrum takes in alike -- is not out-ranked by a step read another way (development
     bias drifts on 16001/16002 named as unexplained onsets when the ranking read it)."""
-    if not settings.onset_profile or state.eq_noise.kind != "smoothed":
+    features = profiled_features(settings)
+    if not features or state.eq_noise.kind != "smoothed":
         return None
     target = equation_target(data, basis)
     ratio = _profile_ratio(state.eq_noise, state.eq_fit.residual, lambda cols: _fit_eq(
         target, state.eq_cols + cols, state.red, data.layout, data.fs, state.eq_noise.kind))
-    return lambda cols, lam: lam if lam < PROFILE_SCREEN else ratio(cols)
+    return _ProfileReader(ratio, features)
 
 
 def _profile_ratio(noise0: NoiseModel, residual0: np.ndarray, refit):
@@ -875,7 +916,7 @@ def _evaluation(cand: Candidate, groups: dict, settings: Settings) -> Evaluation
     dof = len(cand.columns)
     ev = Evaluation(cand, lam, dof, groups[cand.group].n,
                     _p_value(cand, _significance_glr(cand, lam, groups, settings), dof))
-    if _onset(cand) and groups.get("equation_profile") is not None:
+    if _profiled(cand, groups):
         ev.p_glr = _p_value(cand, _null_glr(cand, lam, settings), dof)
     return ev
 
@@ -969,7 +1010,7 @@ def _kin_profile(data: Data, state: State, alt: _IVGroup | None, settings: Setti
     return read
 
 
-#: A profile ratio (:func:`_kin_profile`, :func:`_onset_profile`) is computed only where
+#: A profile ratio (:func:`_kin_profile`, :func:`_equation_profile`) is computed only where
 #: the candidate's GLR (a kinematic one's: under the null's or the shared alternative's
 #: noise model) reaches this (chi^2_1's 95 % point): 74 of 1,052 kinematic candidates on
 #: 60 clean recordings (7 %; the largest ratio it leaves out there is 4.1), and every
@@ -991,11 +1032,12 @@ def _kin_candidates(data: Data, basis: np.ndarray, state: State,
 
 
 def _significance_glr(cand: Candidate, lam: float, groups: dict, settings: Settings) -> float:
-    """The statistic a candidate's p-value is computed from: a generic onset feature's
-    profile ratio where ``Settings.onset_profile`` is on (``groups["equation_profile"]``,
-    :func:`_onset_profile`), else :func:`_null_glr`."""
-    profile = groups.get("equation_profile") if _onset(cand) else None
-    return profile(cand.columns, lam) if profile is not None else _null_glr(cand, lam, settings)
+    """The statistic a candidate's p-value is computed from: a generic feature's profile
+    ratio where its setting is on (``groups["equation_profile"]``,
+    :func:`_equation_profile`), else :func:`_null_glr`."""
+    if _profiled(cand, groups):
+        return groups["equation_profile"](cand.columns, lam)
+    return _null_glr(cand, lam, settings)
 
 
 def _null_glr(cand: Candidate, lam: float, settings: Settings) -> float:
