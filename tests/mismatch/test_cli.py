@@ -38,6 +38,8 @@ def test_cli_writes_the_report(recording, tmp_path, capsys, name):
     assert rep["settings"]["kin_profile"] is True and rep["settings"]["onset_profile"] is False
     assert rep["settings"]["convention_profile"] is True
     assert rep["settings"]["timing_regressor"] == "tones"
+    assert rep["settings"]["line_refine"] is True and rep["settings"]["line_profile"] is False
+    assert rep["settings"]["joint_correlation"] is False
 
 
 def test_cli_can_turn_the_stop_40_to_56_rules_off(recording, tmp_path):
@@ -47,6 +49,7 @@ def test_cli_can_turn_the_stop_40_to_56_rules_off(recording, tmp_path):
                  "--no-true-position", "--rails", "read", "--kin-refit",
                  "--no-kin-profile", "--onset-profile", "--no-witness-refit",
                  "--no-convention-profile", "--timing-regressor", "band",
+                 "--no-line-refine", "--joint-correlation", "--line-profile",
                  "--no-plots"]) == 0  # fmt: skip
     settings = json.loads((out / "report.json").read_text())["settings"]
     assert settings["rejudge"] is False and settings["in_place"] is False
@@ -57,6 +60,8 @@ def test_cli_can_turn_the_stop_40_to_56_rules_off(recording, tmp_path):
     assert settings["kin_profile"] is False and settings["onset_profile"] is True
     assert settings["witness_refit"] is False and settings["convention_profile"] is False
     assert settings["timing_regressor"] == "band"
+    assert settings["line_refine"] is False and settings["joint_correlation"] is True
+    assert settings["line_profile"] is True
 
 
 def test_cli_reports_a_bad_file_in_one_line(tmp_path, capsys):

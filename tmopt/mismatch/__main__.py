@@ -11,7 +11,7 @@ from tmopt.design.cli import add_design_options, check_design_options
 from tmopt.mismatch.calibration import FAMILY_ALPHA, LOCATE_ALPHA
 from tmopt.mismatch.diagnose import RAILS, Settings, diagnose
 from tmopt.mismatch.fit import data_from_recording
-from tmopt.mismatch.generic import TIMING_DEFAULT, TIMING_REGRESSORS
+from tmopt.mismatch.generic import LINE_REFINE, TIMING_DEFAULT, TIMING_REGRESSORS
 from tmopt.mismatch.report import write_report
 from tmopt.physics.recording import RecordingError, read_recording
 
@@ -83,6 +83,18 @@ def _parser() -> argparse.ArgumentParser:
                    help="the readout timing feature's regressor: the accelerometer term's "
                         "excitation-tone part (tones) or the measured term's derivative "
                         "below the excitation's band (band; docs/mismatch.md 9.34)")  # fmt: skip
+    p.add_argument("--line-refine", action=argparse.BooleanOptionalAction, default=LINE_REFINE,
+                   help="read a generic line's frequency off the whole record, not only the "
+                        "longest gap-free segment's grid (on by default; docs/mismatch.md "
+                        "9.38)")  # fmt: skip
+    p.add_argument("--joint-correlation", action="store_true",
+                   help="combine an accelerometer cross-talk's (or one-tap delay's) two "
+                        "estimates with their correlation read from the recording (off by "
+                        "default until its paired test; docs/mismatch.md 9.39)")  # fmt: skip
+    p.add_argument("--line-profile", action="store_true",
+                   help="judge a generic force line's significance by its profile "
+                        "likelihood ratio (off by default: its null is not yet calibrated; "
+                        "docs/mismatch.md 9.40)")  # fmt: skip
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--design-next", action="store_true",
                    help="also design the next excitation into --out (python -m tmopt.design)")
@@ -117,7 +129,10 @@ def main(argv: list[str] | None = None) -> int:
                         kin_profile=args.kin_profile, onset_profile=args.onset_profile,
                         convention_profile=args.convention_profile,
                         witness_refit=not args.no_witness_refit,
-                        timing_regressor=args.timing_regressor)  # fmt: skip
+                        timing_regressor=args.timing_regressor,
+                        line_refine=args.line_refine,
+                        joint_correlation=args.joint_correlation,
+                        line_profile=args.line_profile)  # fmt: skip
     dg = diagnose(data_from_recording(rec), settings)
     rep = write_report(dg, args.out, plots=not args.no_plots)
     print(rep["conclusion"])

@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
@@ -338,19 +339,15 @@ def _refused_report(dg: Diagnosis) -> dict:
 
 
 def _settings(dg: Diagnosis) -> dict:
-    return {"family_alpha": dg.settings.alpha, "locate_alpha": dg.settings.locate_alpha,
-            "max_effects": dg.settings.max_effects, "noise": dg.settings.noise,
-            "joint": dg.settings.joint, "lowfreq": list(dg.settings.lowfreq),
-            "rejudge": dg.settings.rejudge, "in_place": dg.settings.in_place,
-            "shape_search": dg.settings.shape_search,
-            "shape_placements": dg.settings.shape_placements,
-            "pairs": dg.settings.pairs, "true_position": dg.settings.true_position,
-            "rails": dg.settings.rails, "kin_refit": dg.settings.kin_refit,
-            "kin_profile": dg.settings.kin_profile,
-            "onset_profile": dg.settings.onset_profile,
-            "convention_profile": dg.settings.convention_profile,
-            "witness_refit": dg.settings.witness_refit,
-            "timing_regressor": dg.settings.timing_regressor}  # fmt: skip
+    """Every field of the diagnosis's :class:`Settings` (``alpha`` as ``family_alpha``,
+    tuples as lists): a report says which tool made it, a setting added later included
+    (``line_refine`` was missing from stop 63's reports)."""
+    out = {}
+    for f in fields(dg.settings):
+        v = getattr(dg.settings, f.name)
+        name = "family_alpha" if f.name == "alpha" else f.name
+        out[name] = list(v) if isinstance(v, tuple) else v
+    return out
 
 
 def build_report(dg: Diagnosis) -> dict:
