@@ -190,7 +190,10 @@ class Settings:
     # recording (:func:`_joint`, :func:`_score_correlation`, docs 9.39): a's own
     # accelerometer noise is in both residuals, and where both axes are excited the two
     # estimates were correlated ~0.2, their independent combination inflated ~1.2x
-    # (docs 9.37: foreign 370050's clean draw named acc:x2<-y2 at Holm p 0.004)
+    # (docs 9.37: foreign 370050's clean draw named acc:x2<-y2 at Holm p 0.004).  Off:
+    # its null passed, but on never-seen rows it lost five actuation gains -- a read
+    # correlation above s_min/s_max gives the less precise estimate a negative weight,
+    # and moves the accelerometer scale whose kinematic twin vetoes it (docs 9.39)
     joint_correlation: bool = False
     # judge a generic force line's significance by its profile likelihood ratio, as
     # onset_profile judges an onset's (:func:`_equation_profile`, docs 9.40): the null's
