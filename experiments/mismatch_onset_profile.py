@@ -43,6 +43,9 @@ CATALOGUE_SIZE = 150
 
 #: ``--feature``: the generic features read, and the option that reads them.
 FEATURES = {"onset": "onset_profile", "line": "line_profile"}
+#: The null's default rows (resumable, keyed by recording: another feature's rows go to
+#: ``null_<feature>.jsonl`` beside it, never into this file).
+NULL_OUT = "results/mismatch_onset_profile/null.jsonl"
 
 
 def onset_statistics(rec, feature: str = "onset") -> list[dict]:
@@ -143,7 +146,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--feature", choices=sorted(FEATURES), default="onset")
     sub = ap.add_subparsers(dest="cmd", required=True)
-    add_null_parser(sub, "null", 37370, 30, "results/mismatch_onset_profile/null.jsonl")
+    add_null_parser(sub, "null", 37370, 30, NULL_OUT)
     sub.add_parser("summary").add_argument("paths", nargs="+")
     sub.add_parser("case").add_argument("recordings", nargs="+")
     sub.add_parser("cost").add_argument("recordings", nargs="+")
@@ -152,7 +155,10 @@ def main(argv: list[str] | None = None) -> int:
         if error := null_args_error(a):
             print(error, file=sys.stderr)
             return 2
-        null(a.seed_base, a.n, Path(a.out), a.feature)
+        out = Path(a.out)
+        if a.feature != "onset" and a.out == NULL_OUT:  # a resumable file per feature
+            out = out.with_name(f"null_{a.feature}.jsonl")
+        null(a.seed_base, a.n, out, a.feature)
     elif a.cmd == "summary":
         summary(a.paths)
     elif a.cmd == "case":
