@@ -15,7 +15,9 @@ import pytest
 
 from tmopt.mismatch.diagnose import (
     Settings,
+    _joint,
     _score_correlation,
+    admissible_correlation,
     evaluate,
     fit_state,
     gls_mean_lr,
@@ -52,6 +54,47 @@ def test_correlated_estimates_are_chi2_only_when_their_correlation_is_counted():
     assert naive.mean() == pytest.approx(1 + rho, abs=0.05)
     assert gls.mean() == pytest.approx(1.0, abs=0.05)
     assert np.mean(gls > 6.635) == pytest.approx(0.01, abs=0.003)
+
+
+def test_a_read_correlation_never_gives_an_estimate_a_negative_weight():
+    """9.39's loss: the equation estimate 58x less precise than the twin's, a large gain
+    seen by the equation alone, the twin at zero (its veto).  With rho 0.2 read, the raw
+    GLS mean weights the equation's estimate negatively and the veto fails (LR ~31);
+    clipped to s_min/s_max, the twin alone decides (LR 0)."""
+    b1, s1, b2, s2, rho = 30 * 58.0, 58.0, 0.0, 1.0, 0.2
+    assert gls_mean_lr(b1, s1, b2, s2, rho) > 20
+    assert admissible_correlation(rho, s1, s2) == pytest.approx(1 / 58)
+    assert gls_mean_lr(b1, s1, b2, s2, admissible_correlation(rho, s1, s2)) < 1e-9
+    assert admissible_correlation(-0.3, 1.0, 1.2) == 0.0
+    assert admissible_correlation(0.4, 1.0, 1.2) == 0.4  # admissible: kept as read
+
+
+class _Fixed:
+    """A group with a fixed estimate and score, for :func:`_joint` alone."""
+
+    def __init__(self, b: float, s: float, scores: np.ndarray, index=None):
+        self.b, self.s, self._scores, self.index = b, s, scores, index
+
+    def estimate(self, _col):
+        return self.b, self.s
+
+    def scores(self, _col):
+        return self._scores
+
+
+def test_the_twin_pairs_statistic_reads_the_clipped_correlation():
+    """Through :func:`_joint`: scores correlated ~0.9 (far beyond 1/58) read as 1/58."""
+    from types import SimpleNamespace
+
+    rng = np.random.default_rng(5)
+    e = rng.normal(size=4000)
+    k = 0.9 * e + math.sqrt(1 - 0.81) * rng.normal(size=4000)
+    groups = {"equation": _Fixed(30 * 58.0, 58.0, e), "joint_correlation": True,
+              "kinematic": _Fixed(0.0, 1.0, k, np.arange(4000))}  # fmt: skip
+    cand = SimpleNamespace(columns=[None], twin=None)
+    assert _joint(cand, groups) < 1e-9
+    groups["joint_correlation"] = False
+    assert _joint(cand, groups) == pytest.approx(gls_mean_lr(30 * 58.0, 58.0, 0.0, 1.0, 0.0))
 
 
 def _scores(rng, n: int, spread: np.ndarray):
@@ -101,7 +144,7 @@ def clean_state():
 
 def test_the_switch_reaches_the_accelerometer_cross_talks_statistic(clean_state):
     """With ``joint_correlation`` each acc cross-talk's statistic is the GLS mean's, its
-    rho the recording's own; without it, the inverse-variance mean's."""
+    rho the recording's own kept admissible; without it, the inverse-variance mean's."""
     data, basis, state = clean_state
     on, off = Settings(joint_correlation=True), Settings()
     by_key = {s: {e.candidate.key: e for e in evaluate(data, basis, state, s, set())}
@@ -114,9 +157,10 @@ def test_the_switch_reaches_the_accelerometer_cross_talks_statistic(clean_state)
         cand = by_key[on][key].candidate
         b1, s1 = groups["equation"].estimate(cand.columns[0])
         b2, s2 = groups["kinematic"].estimate(cand.twin)
-        rho = _score_correlation(groups["equation"].scores(cand.columns[0]),
-                                 groups["kinematic"].scores(cand.twin),
-                                 groups["kinematic"].index)  # fmt: skip
+        rho = admissible_correlation(
+            _score_correlation(groups["equation"].scores(cand.columns[0]),
+                               groups["kinematic"].scores(cand.twin),
+                               groups["kinematic"].index), s1, s2)  # fmt: skip
         assert by_key[on][key].glr == pytest.approx(gls_mean_lr(b1, s1, b2, s2, rho))
         assert by_key[off][key].glr == pytest.approx(gls_mean_lr(b1, s1, b2, s2, 0.0))
         moved += not math.isclose(by_key[on][key].glr, by_key[off][key].glr, rel_tol=1e-6)

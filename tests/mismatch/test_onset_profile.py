@@ -19,14 +19,15 @@ import pytest
 
 from tmopt.mismatch import generic
 from tmopt.mismatch.diagnose import (
+    ONSET_FEATURES,
     Evaluation,
     Settings,
     _best,
     _equation_alternatives,
     _fit_eq,
+    _generic_feature,
     _given,
     _holm_adjusted,
-    _onset,
     _rivals,
     _tests,
     diagnose,
@@ -58,9 +59,13 @@ def stepped():
     return rec, ooc, diagnose(data_from_recording(rec), ON)
 
 
+def _onset_feature(cand: Candidate) -> bool:
+    return _generic_feature(cand) in ONSET_FEATURES
+
+
 def _onset_candidates(d, basis, st):
     ctx = Context(d, basis, st.eq_fit.residual, st.eq_noise)
-    return [c for c in generic.candidates(ctx) if _onset(c)]
+    return [c for c in generic.candidates(ctx) if _onset_feature(c)]
 
 
 def test_a_force_step_the_null_spectrum_takes_in_is_reported_unexplained(stepped):
@@ -115,7 +120,7 @@ def test_on_a_clean_recording_no_onset_reaches_significance(backend):
     st = fit_state(d, basis, [], [], False, Settings())
     on = _tests(d, basis, st, ON, set())[0]
     off = _tests(d, basis, st, Settings(), set())[0]
-    onset = [e for e in on if _onset(e.candidate)]
+    onset = [e for e in on if _onset_feature(e.candidate)]
     assert onset
     assert all(e.p_value * len(on) > ON.alpha for e in onset), [
         (e.candidate.key, e.glr, e.p_value) for e in onset]  # fmt: skip
@@ -132,7 +137,7 @@ def test_only_the_significance_of_an_onset_moves(stepped):
     on = _tests(d, basis, st, ON, set())[0]
     off = _tests(d, basis, st, Settings(), set())[0]
     moved = [(a, b) for a, b in zip(on, off) if a.p_value != b.p_value]
-    assert moved and all(_onset(a.candidate) for a, _ in moved)
+    assert moved and all(_onset_feature(a.candidate) for a, _ in moved)
     assert all(a.glr == b.glr for a, b in zip(on, off))
     m = len(on)  # Holm's first step: off, no onset reaches it; on, the step does
     assert min(a.p_value for a, _ in moved) * m < ON.alpha < min(b.p_value for _, b in moved) * m

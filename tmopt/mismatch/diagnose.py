@@ -193,7 +193,8 @@ class Settings:
     # (docs 9.37: foreign 370050's clean draw named acc:x2<-y2 at Holm p 0.004).  Off:
     # its null passed, but on never-seen rows it lost five actuation gains -- a read
     # correlation above s_min/s_max gives the less precise estimate a negative weight,
-    # and moves the accelerometer scale whose kinematic twin vetoes it (docs 9.39)
+    # and moves the accelerometer scale whose kinematic twin vetoes it (docs 9.39); the
+    # correlation is now clipped to [0, s_min/s_max] (docs 9.41, not yet tested on rows)
     joint_correlation: bool = False
     # judge a generic force line's significance by its profile likelihood ratio, as
     # onset_profile judges an onset's (:func:`_equation_profile`, docs 9.40): the null's
@@ -651,7 +652,8 @@ def _joint(cand: Candidate, groups: dict) -> float:
     the kinematics): for two Gaussian estimates of the same value, the LR against zero is
     that of their generalised least-squares mean, so a twin that sees nothing vetoes the
     candidate.  Their correlation is 0 unless ``groups["joint_correlation"]`` holds
-    (``Settings.joint_correlation``): then it is :func:`_score_correlation`'s."""
+    (``Settings.joint_correlation``): then it is :func:`_score_correlation`'s, kept
+    admissible (:func:`admissible_correlation`)."""
     b1, s1 = groups["equation"].estimate(cand.columns[0])
     b2, s2 = groups["kinematic"].estimate(cand.twin)
     if math.isinf(s1) or math.isinf(s2):  # one group cannot see it: the other's alone
@@ -659,10 +661,25 @@ def _joint(cand: Candidate, groups: dict) -> float:
             float((b2 / s2) ** 2 if math.isinf(s1) else (b1 / s1) ** 2)  # fmt: skip
     rho = 0.0
     if groups.get("joint_correlation"):
-        rho = _score_correlation(groups["equation"].scores(cand.columns[0]),
-                                 groups["kinematic"].scores(cand.twin),
-                                 groups["kinematic"].index)  # fmt: skip
+        rho = admissible_correlation(
+            _score_correlation(groups["equation"].scores(cand.columns[0]),
+                               groups["kinematic"].scores(cand.twin),
+                               groups["kinematic"].index), s1, s2)  # fmt: skip
     return gls_mean_lr(b1, s1, b2, s2, rho)
+
+
+def admissible_correlation(rho: float, s1: float, s2: float) -> float:
+    """``rho`` clipped to ``[0, s_min / s_max]`` (docs/mismatch.md 9.41).  Both weights
+    of the GLS mean are non-negative exactly when ``rho <= s_min / s_max`` (the bound is
+    reached when the less precise estimate is the precise one plus an independent
+    error); beyond it the less precise estimate is weighted *negatively*, used to cancel
+    the other's noise, which holds only if the read correlation is exact -- it is read
+    with a noise of ~0.1, and that moved the statistic of the very candidates whose twin
+    vetoes them (9.39: five actuation gains lost where ``s_eq / s_kin`` was 58).  Below
+    0 the independent combination is kept: the shared noise the correction exists for
+    is positive (9.39's null: +0.14 where both axes are excited, +0.002 elsewhere), and a
+    negative read where none exists would only shrink the variance."""
+    return float(min(max(rho, 0.0), min(s1, s2) / max(s1, s2)))
 
 
 def gls_mean_lr(b1: float, s1: float, b2: float, s2: float, rho: float) -> float:
@@ -732,12 +749,6 @@ def _statistic(cand: Candidate, groups: dict) -> float:
     if witness is not None and _witness_moves(cand):
         lam = max(lam, witness(cand.columns) / cal.WITNESS_REFIT_INFLATION)
     return lam
-
-
-def _onset(cand: Candidate) -> bool:
-    """A generic onset feature of the equation group (:data:`ONSET_FEATURES`), whose
-    significance :func:`_equation_profile` may read."""
-    return _generic_feature(cand) in ONSET_FEATURES
 
 
 def _generic_feature(cand: Candidate) -> str | None:
