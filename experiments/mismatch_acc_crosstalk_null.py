@@ -50,7 +50,7 @@ def statistics(rec) -> dict:
     from tmopt.mismatch.fit import data_from_recording
 
     data, basis = prepare(data_from_recording(rec))
-    settings = Settings(joint_correlation=False)  # glr: the independent combination's
+    settings = Settings()
     state = fit_state(data, basis, [], [], False, settings)
     evals = evaluate(data, basis, state, settings, set())
     groups = residual_groups(data, state)

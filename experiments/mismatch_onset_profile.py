@@ -65,8 +65,7 @@ def onset_statistics(rec, feature: str = "onset") -> list[dict]:
     from tmopt.mismatch.fit import data_from_recording
 
     d, basis = prepare(data_from_recording(rec))
-    # the feature's own option alone (onset_profile is on by default since stop 65)
-    st = Settings(**{**{o: False for o in FEATURES.values()}, FEATURES[feature]: True})
+    st = Settings(**{FEATURES[feature]: True})
     s = fit_state(d, basis, [], [], False, st)
     ctx = Context(d, basis, s.eq_fit.residual, s.eq_noise)
     group = residual_groups(d, s)["equation"]

@@ -35,11 +35,11 @@ def test_cli_writes_the_report(recording, tmp_path, capsys, name):
     assert rep["settings"]["shape_placements"] is True and rep["settings"]["pairs"] is True
     assert rep["settings"]["true_position"] is True and rep["settings"]["rails"] == "fallback"
     assert rep["settings"]["kin_refit"] is False and rep["settings"]["witness_refit"] is True
-    assert rep["settings"]["kin_profile"] is True and rep["settings"]["onset_profile"] is True
+    assert rep["settings"]["kin_profile"] is True and rep["settings"]["onset_profile"] is False
     assert rep["settings"]["convention_profile"] is True
     assert rep["settings"]["timing_regressor"] == "tones"
     assert rep["settings"]["line_refine"] is True and rep["settings"]["line_profile"] is False
-    assert rep["settings"]["joint_correlation"] is True
+    assert rep["settings"]["joint_correlation"] is False
 
 
 def test_cli_can_turn_the_stop_40_to_56_rules_off(recording, tmp_path):
@@ -47,9 +47,9 @@ def test_cli_can_turn_the_stop_40_to_56_rules_off(recording, tmp_path):
     assert main([str(recording / "clean.h5"), "--out", str(out), "--no-rejudge",
                  "--no-in-place", "--no-shape-search", "--no-shape-placements", "--no-pairs",
                  "--no-true-position", "--rails", "read", "--kin-refit",
-                 "--no-kin-profile", "--no-onset-profile", "--no-witness-refit",
+                 "--no-kin-profile", "--onset-profile", "--no-witness-refit",
                  "--no-convention-profile", "--timing-regressor", "band",
-                 "--no-line-refine", "--no-joint-correlation", "--line-profile",
+                 "--no-line-refine", "--joint-correlation", "--line-profile",
                  "--no-plots"]) == 0  # fmt: skip
     settings = json.loads((out / "report.json").read_text())["settings"]
     assert settings["rejudge"] is False and settings["in_place"] is False
@@ -57,10 +57,10 @@ def test_cli_can_turn_the_stop_40_to_56_rules_off(recording, tmp_path):
     assert settings["shape_placements"] is False and settings["pairs"] is False
     assert settings["true_position"] is False and settings["rails"] == "read"
     assert settings["kin_refit"] is True  # the two switches that are off by default
-    assert settings["kin_profile"] is False and settings["onset_profile"] is False
+    assert settings["kin_profile"] is False and settings["onset_profile"] is True
     assert settings["witness_refit"] is False and settings["convention_profile"] is False
     assert settings["timing_regressor"] == "band"
-    assert settings["line_refine"] is False and settings["joint_correlation"] is False
+    assert settings["line_refine"] is False and settings["joint_correlation"] is True
     assert settings["line_profile"] is True
 
 

@@ -146,7 +146,7 @@ def test_the_switch_reaches_the_accelerometer_cross_talks_statistic(clean_state)
     """With ``joint_correlation`` each acc cross-talk's statistic is the GLS mean's, its
     rho the recording's own kept admissible; without it, the inverse-variance mean's."""
     data, basis, state = clean_state
-    on, off = Settings(), Settings(joint_correlation=False)  # on by default since stop 65
+    on, off = Settings(joint_correlation=True), Settings()
     by_key = {s: {e.candidate.key: e for e in evaluate(data, basis, state, s, set())}
               for s in (on, off)}  # fmt: skip
     groups = residual_groups(data, state)

@@ -89,11 +89,10 @@ def test_line_profile_reads_the_lines_significance_by_its_profile_ratio(gapped_l
     from tmopt.mismatch.diagnose import _equation_alternatives, _generic_feature, evaluate
 
     _, _, _, (data, basis, state) = gapped_line
-    off = Settings(onset_profile=False)  # onsets read by their GLR: what line_profile adds
-    on = replace(off, line_profile=True)
+    on = Settings(line_profile=True)
     by = {s: {_generic_feature(e.candidate): e for e in evaluate(data, basis, state, s, set())}
-          for s in (on, off)}  # fmt: skip
-    line_on, line_off = by[on]["line"], by[off]["line"]
+          for s in (on, Settings())}  # fmt: skip
+    line_on, line_off = by[on]["line"], by[Settings()]["line"]
     ratio = _equation_alternatives(data, basis, state, on)["equation_profile"](
         line_on.candidate.columns, float("inf"))
     assert ratio > line_on.glr == pytest.approx(line_off.glr)

@@ -6,9 +6,9 @@ the acceleration noise's 1/f^2 spectrum rests on a few periodogram bins: the nul
 model is estimated from a residual that holds the step and takes it in.  The profile
 ratio fits the step's column *and* estimates the noise model again under it, each fit
 scored by Whittle's likelihood under its own model (as ``kin_profile``, 9.29).
-Development seeds (< 20000).  On by default since stop 65 (``Settings.onset_profile``,
-docs 9.41); off until then: on two never-seen draws it reported one force step more,
-and on the second it moved no row (docs 9.30, 9.31).
+Development seeds (< 20000).  Off by default (``Settings.onset_profile``): on two
+never-seen draws it reported one force step more, and on the second it moved no row
+(docs 9.30, 9.31).
 """
 
 from __future__ import annotations
@@ -42,7 +42,6 @@ from tmopt.mismatch.realistic import draw_scenario, make_ooc, realistic_recordin
 from .test_kin_profile import _whittle_by_hand
 
 ON = Settings(onset_profile=True)
-OFF = Settings(onset_profile=False)
 SEED = 16001  # kernel; a 1500 s record, x1 excited
 STEP = 2e-12  # m s^-2: GLR 29.5 under the null's spectrum (below the level), profile 60.4
 
@@ -71,15 +70,14 @@ def _onset_candidates(d, basis, st):
 
 def test_a_force_step_the_null_spectrum_takes_in_is_reported_unexplained(stepped):
     """Read by its profile ratio, the step is selected as an unexplained onset on x1 at
-    its time; read by its GLR alone (the default until stop 65) nothing is said."""
+    its time; the default (off) says nothing on the same record."""
     rec, ooc, dg = stepped
     [(ev, _)] = dg.selected
     c = ev.candidate
     assert c.effect == generic.GENERIC and c.channel == "x1", c.key
     assert c.fixed["feature"] in ("step", "relaxation")
     assert abs(c.fixed["t0_s"] - ooc.params["t_step"]) < 30.0, (c.fixed, ooc.params)
-    assert not diagnose(data_from_recording(rec), OFF).selected
-    assert Settings() == ON  # the default since stop 65 (docs 9.41)
+    assert not diagnose(data_from_recording(rec)).selected
 
 
 def test_the_statistic_is_the_profile_ratio_computed_a_second_way(stepped):
@@ -109,7 +107,7 @@ def test_backward_elimination_reads_it_by_its_profile_too(stepped):
     n_tests = len(dg.steps[0])
     p, dbic = _given(dg.data, dg.basis, chosen, 0, dg.settings, n_tests)
     assert p < dg.settings.alpha and dbic > 0, (p, dbic)
-    p_off, _ = _given(dg.data, dg.basis, chosen, 0, OFF, n_tests)
+    p_off, _ = _given(dg.data, dg.basis, chosen, 0, Settings(), n_tests)
     assert p_off > dg.settings.alpha, p_off
 
 
@@ -119,9 +117,9 @@ def test_on_a_clean_recording_no_onset_reaches_significance(backend):
     level after its search and the Holm ladder; every GLR, and every other candidate's
     p-value, is the one the default computes."""
     d, basis = prepare(data_from_recording(_recording(SEED, backend)[0]))
-    st = fit_state(d, basis, [], [], False, OFF)
+    st = fit_state(d, basis, [], [], False, Settings())
     on = _tests(d, basis, st, ON, set())[0]
-    off = _tests(d, basis, st, OFF, set())[0]
+    off = _tests(d, basis, st, Settings(), set())[0]
     onset = [e for e in on if _onset_feature(e.candidate)]
     assert onset
     assert all(e.p_value * len(on) > ON.alpha for e in onset), [
@@ -135,9 +133,9 @@ def test_only_the_significance_of_an_onset_moves(stepped):
     """On the stepped record the step's GLR -- what BIC gains and the ambiguity band
     compare -- is the default's; its p-value is the profile ratio's, far smaller."""
     d, basis = stepped[2].data, stepped[2].basis
-    st = fit_state(d, basis, [], [], False, OFF)
+    st = fit_state(d, basis, [], [], False, Settings())
     on = _tests(d, basis, st, ON, set())[0]
-    off = _tests(d, basis, st, OFF, set())[0]
+    off = _tests(d, basis, st, Settings(), set())[0]
     moved = [(a, b) for a, b in zip(on, off) if a.p_value != b.p_value]
     assert moved and all(_onset_feature(a.candidate) for a, _ in moved)
     assert all(a.glr == b.glr for a, b in zip(on, off))

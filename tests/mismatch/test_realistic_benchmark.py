@@ -274,23 +274,23 @@ def test_a_run_keeps_its_settings_and_a_resume_must_ask_the_same(bench, tmp_path
     new, old, older = tmp_path / "new", tmp_path / "old", tmp_path / "older"
     new.mkdir()
     mr._run_scaler(new, None, {})
-    off = {"line_profile": False, "kin_profile": False}
+    off = {"onset_profile": False, "kin_profile": False}
     assert mr._run_settings(new, {"kin_profile": False}, True) == {"kin_profile": False}
     meta = json.loads((new / "realistic_meta.json").read_text())
     assert meta["settings"] == {"kin_profile": False} and meta["scaler_version"] == 2
     assert meta["effective"]["kin_profile"] is False and meta["effective"]["alpha"] > 0
     assert meta["effective"]["lowfreq"] == list(Settings().lowfreq)
     assert mr._run_settings(new, {"kin_profile": False}, True) == {"kin_profile": False}
-    # the same tool asked another way (line_profile's default said out loud) is no mix
+    # the same tool asked another way (onset_profile's default said out loud) is no mix
     assert mr._run_settings(new, off, True) == off
     with pytest.raises(SystemExit, match="runs the tool with kin_profile=True, but .* "
                                          "made with kin_profile=False; use another"):
         mr._run_settings(new, {}, True)
     assert mr._run_settings(new, {}, False) == {"kin_profile": False}
     # a default changed after a run was made: the run keeps what it ran
-    meta["effective"]["line_profile"] = True
+    meta["effective"]["onset_profile"] = True
     (new / "realistic_meta.json").write_text(json.dumps(meta))
-    with pytest.raises(SystemExit, match="line_profile=False, but .* line_profile=True"):
+    with pytest.raises(SystemExit, match="onset_profile=False, but .* onset_profile=True"):
         mr._run_settings(new, {"kin_profile": False}, True)
     for run, kept in ((old, {"scaler_version": 2, "commit": "02566d4"}),
                       (older, {"scaler_version": 2, "settings": {}})):

@@ -59,11 +59,11 @@ def _parser() -> argparse.ArgumentParser:
                    help="read the kinematic group's candidates by their profile likelihood "
                         "ratio, the noise model estimated again under each (on by "
                         "default; docs/mismatch.md 9.29-9.31)")  # fmt: skip
-    p.add_argument("--onset-profile", action=argparse.BooleanOptionalAction, default=True,
+    p.add_argument("--onset-profile", action="store_true",
                    help="judge a generic force step or relaxation's significance by its "
                         "profile likelihood ratio, the equation noise model estimated again "
-                        "under it (on by default since its paired test; docs/mismatch.md "
-                        "9.30, 9.41)")  # fmt: skip
+                        "under it (off by default: it can out-rank a glitch; "
+                        "docs/mismatch.md 9.30)")  # fmt: skip
     p.add_argument("--convention-profile", action=argparse.BooleanOptionalAction,
                    default=True,
                    help="where the Eq. 10 fit leaves the accelerometer's sampling "
@@ -87,12 +87,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="read a generic line's frequency off the whole record, not only the "
                         "longest gap-free segment's grid (on by default; docs/mismatch.md "
                         "9.38)")  # fmt: skip
-    p.add_argument("--joint-correlation", action=argparse.BooleanOptionalAction,
-                   default=True,
+    p.add_argument("--joint-correlation", action="store_true",
                    help="combine an accelerometer cross-talk's (or one-tap delay's) two "
-                        "estimates with their correlation read from the recording, clipped "
-                        "to [0, s_min/s_max] (on by default since its paired test; "
-                        "docs/mismatch.md 9.39, 9.41)")  # fmt: skip
+                        "estimates with their correlation read from the recording (off by "
+                        "default until its paired test; docs/mismatch.md 9.39)")  # fmt: skip
     p.add_argument("--line-profile", action="store_true",
                    help="judge a generic force line's significance by its profile "
                         "likelihood ratio (off by default: its null is not yet calibrated; "

@@ -156,10 +156,8 @@ class Settings:
     # the acceleration noise, and the null's spectrum takes it in (kernel 280112, SNR 39:
     # GLR 31.7, profile 88.8).  An onset significant only by its ratio ranks after every
     # candidate significant by its GLR (:func:`_best`): on the never-seen 290000 it had
-    # left two storm glitches unnamed (an onset at a glitch's place; docs 9.30, 9.31).
-    # On since stop 65: on 390000's keys 0-47 it reported one thermal relaxation at its
-    # axis and moved no other row (its pre-registered rule, docs 9.41)
-    onset_profile: bool = True
+    # left two storm glitches unnamed (an onset at a glitch's place; docs 9.30, 9.31)
+    onset_profile: bool = False
     # where the equation group leaves the accelerometer convention undecided, the
     # kinematic group's profile likelihood decides when one convention leads the others
     # by cal.CONVENTION_LEAD (:func:`decide_convention`, docs 9.32): a foreign recording
@@ -193,12 +191,11 @@ class Settings:
     # accelerometer noise is in both residuals, and where both axes are excited the two
     # estimates were correlated ~0.2, their independent combination inflated ~1.2x
     # (docs 9.37: foreign 370050's clean draw named acc:x2<-y2 at Holm p 0.004).  Off:
-    # unclipped, its null passed, but on never-seen rows it lost five actuation gains -- a read
+    # its null passed, but on never-seen rows it lost five actuation gains -- a read
     # correlation above s_min/s_max gives the less precise estimate a negative weight,
     # and moves the accelerometer scale whose kinematic twin vetoes it (docs 9.39); the
-    # correlation is now clipped to [0, s_min/s_max] (docs 9.41).  On since stop 65:
-    # clipped, its null passed again and on 390000's keys 0-47 it moved no row (docs 9.41)
-    joint_correlation: bool = True
+    # correlation is now clipped to [0, s_min/s_max] (docs 9.41, not yet tested on rows)
+    joint_correlation: bool = False
     # judge a generic force line's significance by its profile likelihood ratio, as
     # onset_profile judges an onset's (:func:`_equation_profile`, docs 9.40): the null's
     # spline takes a low line's power in -- its bump carried down to the band's end by
