@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 
-#: Python additions timed for the header's speed index (~0.5 CPU-s).
+#: Python additions timed for the header's speed index (~0.3 CPU-s).
 SPEED_LOOP = 5_000_000
 
 
